@@ -1,0 +1,79 @@
+#pragma once
+// The case file, parsed and validated into typed structs (docs/case_file.md).
+#include <array>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "talus/materials/material.hpp"
+#include "talus/shape/shape_functions.hpp"
+
+namespace talus {
+
+enum class FaceCondition { free, slip, fixed };
+enum class TransferScheme { apic, flip };
+
+struct GridConfig {
+  std::vector<double> lower, upper;
+  double cell_size = 0;
+  ShapeKind shape = ShapeKind::quadratic_bspline;
+};
+
+struct TimeConfig {
+  double end = 0;
+  double step = 0;
+  double theta = 1.0;           // Moreau-Jean theta in [1/2, 1]
+  double min_step_ratio = 1e-3;  // smallest cut-back step / step
+};
+
+struct OutputConfig {
+  std::string directory = "output";
+  double interval = 0;  // 0: only the first and last states
+  bool enabled = true;
+};
+
+struct MaterialConfig {
+  std::string name;
+  std::shared_ptr<const Material> law;
+};
+
+struct BodyConfig {
+  std::string name;
+  int material = 0;  // index into CaseConfig::materials
+  std::vector<double> box_lower, box_upper;
+  int particles_per_cell = 2;  // per axis
+  std::vector<double> velocity;
+};
+
+struct TransferConfig {
+  TransferScheme scheme = TransferScheme::apic;
+  double flip_blend = 0.99;  // FLIP fraction; 0 is PIC
+};
+
+struct SolverConfig {
+  double active_mass_ratio = 1e-12;  // node active if m_i > ratio * max particle mass
+  int max_cutbacks = 10;
+  std::vector<std::pair<std::string, std::string>> petsc_options;  // without the talus_ prefix
+};
+
+struct CaseConfig {
+  std::string source_file;
+  int dim = 2;
+  GridConfig grid;
+  TimeConfig time;
+  OutputConfig output;
+  std::vector<double> gravity;
+  std::vector<MaterialConfig> materials;
+  std::vector<BodyConfig> bodies;
+  std::array<FaceCondition, 6> faces{FaceCondition::slip, FaceCondition::slip, FaceCondition::slip,
+                                     FaceCondition::slip, FaceCondition::slip, FaceCondition::slip};
+  TransferConfig transfer;
+  SolverConfig solver;
+};
+
+// Reads and validates; throws InputError with file, line, key and value.
+CaseConfig load_case(const std::string& file);
+CaseConfig parse_case(const std::string& yaml_text, const std::string& name_for_messages);
+
+}  // namespace talus

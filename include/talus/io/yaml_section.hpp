@@ -1,0 +1,60 @@
+#pragma once
+// Typed, validated access to one YAML map of a case file.
+//
+// Every read records the key; finish() then rejects keys nobody read, with a
+// "did you mean" suggestion. Every error names the file, the line, the full
+// key path and the offending value (docs/case_file.md).
+#include <yaml-cpp/yaml.h>
+
+#include <set>
+#include <string>
+#include <vector>
+
+#include "talus/core/errors.hpp"
+
+namespace talus {
+
+class YamlSection {
+ public:
+  YamlSection(YAML::Node node, std::string path, std::string file);
+
+  bool has(const std::string& key) const;
+  const std::string& path() const { return path_; }
+  const std::string& file() const { return file_; }
+  int line() const;  // 1-based line of this map
+
+  double real(const std::string& key);
+  double real(const std::string& key, double fallback);
+  int integer(const std::string& key);
+  int integer(const std::string& key, int fallback);
+  bool boolean(const std::string& key, bool fallback);
+  std::string text(const std::string& key);
+  std::string text(const std::string& key, const std::string& fallback);
+  // A text that must be one of `choices`.
+  std::string choice(const std::string& key, const std::vector<std::string>& choices, const std::string& fallback);
+  // A list of reals; `length` < 0 accepts any non-empty length.
+  std::vector<double> reals(const std::string& key, int length = -1);
+  YamlSection section(const std::string& key);
+  std::vector<YamlSection> list(const std::string& key);  // list of maps
+  // All entries of a map whose keys are not known in advance (e.g. PETSc options).
+  std::vector<std::pair<std::string, std::string>> free_map(const std::string& key);
+
+  // Value checks: throw InputError naming the key and the value.
+  double positive(const std::string& key, double value) const;
+  [[noreturn]] void fail(const std::string& key, const std::string& message) const;
+  [[noreturn]] void fail_value(const std::string& key, const std::string& value, const std::string& message) const;
+
+  // Reject keys that were never read.
+  void finish() const;
+
+ private:
+  YAML::Node child(const std::string& key, const char* expected);
+  int line_of(const std::string& key) const;
+  std::string key_path(const std::string& key) const;
+
+  YAML::Node node_;
+  std::string path_, file_;
+  mutable std::set<std::string> read_;
+};
+
+}  // namespace talus

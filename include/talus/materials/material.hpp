@@ -1,0 +1,44 @@
+#pragma once
+// The constitutive interface: one material point, one time step.
+//
+// In: the objectively rotated stress at the start of the step sigma* (tension
+// positive, Voigt), the strain increment d_eps (engineering shear), and the
+// internal variables at the start of the step. Out: the stress at the end of
+// the step, the consistent tangent d sigma / d d_eps, the sensitivity
+// d sigma / d sigma* (identity for elasticity), and the new internal
+// variables. Stress and tangent come from the same call, so they always agree.
+#include <memory>
+#include <string>
+
+#include "talus/core/types.hpp"
+
+namespace talus {
+
+class YamlSection;
+
+struct MaterialPointUpdate {
+  Voigt stress;
+  Tangent tangent;            // d stress / d strain_increment
+  Tangent trial_sensitivity;  // d stress / d rotated_stress
+};
+
+class Material {
+ public:
+  virtual ~Material() = default;
+  virtual const char* model() const = 0;
+  virtual double density() const = 0;
+  virtual int state_size() const { return 0; }
+  virtual void update(const Voigt& rotated_stress, const Voigt& strain_increment, const double* state_old,
+                      double* state_new, MaterialPointUpdate& out) const = 0;
+  // Elastic stiffness (for wave speeds, time-step estimates and initial stress).
+  virtual const Tangent& elastic_stiffness() const = 0;
+};
+
+// The built-in materials, by the key used in the case file's `model:`.
+std::unique_ptr<Material> make_material(const std::string& model, YamlSection& parameters);
+std::vector<std::string> material_models();
+
+// Isotropic elastic stiffness in Voigt form (engineering shear).
+Tangent isotropic_stiffness(double youngs_modulus, double poisson_ratio);
+
+}  // namespace talus

@@ -1,0 +1,73 @@
+#pragma once
+// Material points in a PETSc DMSwarm (type PIC) whose cell DM is the grid's
+// DMDA. Every per-particle quantity is a named swarm field, so that
+// DMSwarmMigrate carries all of them between ranks.
+#include <petscdmswarm.h>
+
+#include <cstdint>
+#include <string>
+
+#include "talus/core/errors.hpp"
+#include "talus/core/types.hpp"
+#include "talus/grid/grid.hpp"
+
+namespace talus {
+
+// Field names, in one place (also the array names of the VTK output).
+namespace field {
+inline constexpr const char* position = DMSwarmPICField_coor;       // dim
+inline constexpr const char* velocity = "velocity";                 // dim
+inline constexpr const char* affine_velocity = "affine_velocity";   // dim x dim (APIC C_p), row-major
+inline constexpr const char* displacement = "displacement";         // dim
+inline constexpr const char* mass = "mass";                         // 1
+inline constexpr const char* initial_volume = "initial_volume";     // 1
+inline constexpr const char* deformation_gradient = "deformation_gradient";  // dim x dim, row-major
+inline constexpr const char* stress = "stress";                     // 6, Voigt, tension positive
+inline constexpr const char* material_id = "material_id";           // int
+inline constexpr const char* body_id = "body_id";                   // int
+inline constexpr const char* particle_id = "particle_id";           // int64, global and unique
+}  // namespace field
+
+// RAII access to one swarm field as a typed array.
+template <class T>
+class FieldView {
+ public:
+  FieldView(DM swarm, const char* name) : swarm_(swarm), name_(name) {
+    TALUS_PETSC(DMSwarmGetField(swarm_, name_, &block_, nullptr, reinterpret_cast<void**>(&data_)));
+  }
+  ~FieldView() { DMSwarmRestoreField(swarm_, name_, &block_, nullptr, reinterpret_cast<void**>(&data_)); }
+  FieldView(const FieldView&) = delete;
+  FieldView& operator=(const FieldView&) = delete;
+  T* data() const { return data_; }
+  T& operator[](std::size_t i) const { return data_[i]; }
+  PetscInt block() const { return block_; }
+
+ private:
+  DM swarm_;
+  const char* name_;
+  PetscInt block_ = 0;
+  T* data_ = nullptr;
+};
+
+template <int dim>
+class Particles {
+ public:
+  explicit Particles(const Grid<dim>& grid);
+  ~Particles();
+  Particles(const Particles&) = delete;
+  Particles& operator=(const Particles&) = delete;
+
+  DM swarm() const { return swarm_; }
+  PetscInt local_count() const;
+  PetscInt global_count() const;
+  // Appends `n` particles on this rank and returns the index of the first.
+  PetscInt add(PetscInt n);
+  // Sends particles that left this rank's cells to their new rank
+  // (DMSwarmMigrate); throws if the global count changes.
+  void migrate();
+
+ private:
+  DM swarm_ = nullptr;
+};
+
+}  // namespace talus

@@ -1,0 +1,20 @@
+#pragma once
+// Filling bodies with material points.
+#include <cstdint>
+
+#include "talus/io/config.hpp"
+#include "talus/particles/particles.hpp"
+
+namespace talus {
+
+// Puts particles_per_cell^dim particles per grid cell at sub-cell centres
+// inside the body's box, each with volume (h / ppc)^dim (per unit thickness in
+// 2D), density from the material, the body's initial velocity and zero stress.
+// Every rank creates the particles it owns, so no particle crosses the network.
+// Particle ids are the lattice order offset by `first_id`, identical for any
+// number of ranks. Returns the number of lattice points of the body (all ranks).
+template <int dim>
+std::int64_t seed_box_body(Particles<dim>& particles, const Grid<dim>& grid, const BodyConfig& body,
+                           const Material& material, int body_index, std::int64_t first_id);
+
+}  // namespace talus

@@ -1,0 +1,140 @@
+#pragma once
+// Grid shape functions: linear hats and quadratic B-splines, tensor products
+// of 1D bases on a uniform grid of `cells` cells per axis.
+//
+// Quadratic B-splines use the open (clamped) knot vector
+//   t = [0, 0, 0, 1, 2, ..., n-1, n, n, n]   (units of the cell size)
+// so there are n + 2 basis functions per axis, C1 across cell faces, with
+// partition of unity and exact reproduction of linear fields everywhere,
+// boundary cells included. Basis i "lives" at its Greville abscissa
+//   x*_0 = 0, x*_i = i - 1/2 (1 <= i <= n), x*_{n+1} = n,
+// and only basis 0 (resp. n+1) is non-zero on the face x = 0 (resp. n), where it
+// equals 1: fixing that coefficient imposes the Dirichlet value exactly on the
+// face, without over-constraining the neighbouring cells (which zeroing the
+// two outer functions of an unclamped spline would do; see docs/grid.md).
+// Linear hats have n + 1 functions at the cell vertices.
+#include <array>
+#include <cmath>
+
+#include "talus/core/types.hpp"
+
+namespace talus {
+
+enum class ShapeKind { linear, quadratic_bspline };
+
+// Values and derivatives (per unit length) of the basis functions that are
+// non-zero on one axis at one point: functions first, first+1, ...
+struct Basis1D {
+  int first = 0;
+  int count = 0;
+  double value[3] = {0, 0, 0};
+  double slope[3] = {0, 0, 0};
+};
+
+inline int basis_count(ShapeKind kind, int cells) {
+  return kind == ShapeKind::linear ? cells + 1 : cells + 2;
+}
+
+// Greville abscissa (position in cell units) of basis i.
+inline double basis_position(ShapeKind kind, int i, int cells) {
+  if (kind == ShapeKind::linear) return i;
+  if (i == 0) return 0.0;
+  if (i == cells + 1) return cells;
+  return i - 0.5;
+}
+
+// Knot t_k of the clamped quadratic knot vector with `cells` spans.
+inline double clamped_knot(int k, int cells) {
+  const int t = k - 2;
+  return t < 0 ? 0.0 : (t > cells ? double(cells) : double(t));
+}
+
+// u: position in cell units (0 <= u <= cells); h: cell size.
+inline Basis1D evaluate_basis_1d(ShapeKind kind, double u, int cells, double h) {
+  Basis1D b;
+  int c = static_cast<int>(std::floor(u));
+  if (c < 0) c = 0;
+  if (c > cells - 1) c = cells - 1;
+  const double inv_h = 1.0 / h;
+  if (kind == ShapeKind::linear) {
+    const double s = u - c;
+    b.first = c;
+    b.count = 2;
+    b.value[0] = 1.0 - s;
+    b.value[1] = s;
+    b.slope[0] = -inv_h;
+    b.slope[1] = inv_h;
+    return b;
+  }
+  b.first = c;
+  b.count = 3;
+  if (c >= 2 && c <= cells - 3) {
+    // Interior span: the uniform quadratic B-spline (all knots distinct).
+    const double s = u - c;
+    b.value[0] = 0.5 * (1.0 - s) * (1.0 - s);
+    b.value[1] = 0.5 + s - s * s;
+    b.value[2] = 0.5 * s * s;
+    b.slope[0] = (s - 1.0) * inv_h;
+    b.slope[1] = (1.0 - 2.0 * s) * inv_h;
+    b.slope[2] = s * inv_h;
+    return b;
+  }
+  // Spans near a face: Cox-de Boor for degree 2 on the clamped knot vector
+  // (Piegl & Tiller, The NURBS Book, A2.2/A2.3). Span index s = c + 2.
+  const int s = c + 2;
+  auto t = [cells](int k) { return clamped_knot(k, cells); };
+  // Degree 1 on the span: B_{s-1,1}, B_{s,1}.
+  const double n1_0 = (t(s + 1) - u) / (t(s + 1) - t(s));
+  const double n1_1 = (u - t(s)) / (t(s + 1) - t(s));
+  // Degree 2: B_{s-2,2}, B_{s-1,2}, B_{s,2}.
+  const double a = t(s + 1) - t(s - 1);  // >= 1 on every span
+  const double d = t(s + 2) - t(s);      // >= 1 on every span
+  b.value[0] = (t(s + 1) - u) / a * n1_0;
+  b.value[1] = (u - t(s - 1)) / a * n1_0 + (t(s + 2) - u) / d * n1_1;
+  b.value[2] = (u - t(s)) / d * n1_1;
+  b.slope[0] = -2.0 / a * n1_0 * inv_h;
+  b.slope[1] = (2.0 / a * n1_0 - 2.0 / d * n1_1) * inv_h;
+  b.slope[2] = 2.0 / d * n1_1 * inv_h;
+  return b;
+}
+
+// The tensor-product stencil of one particle: the grid functions that are
+// non-zero at its position, their values and gradients.
+template <int dim>
+struct Stencil {
+  static constexpr int max_nodes = dim == 2 ? 9 : 27;
+  int count = 0;
+  std::array<std::array<int, dim>, max_nodes> node;  // global grid index (i, j[, k])
+  std::array<int, max_nodes> local;                  // index in the rank's ghosted node arrays
+  std::array<double, max_nodes> weight;
+  std::array<Vector<dim>, max_nodes> gradient;
+};
+
+// x_rel: position relative to the grid's lower corner (physical units).
+template <int dim>
+inline void evaluate_stencil(ShapeKind kind, const Vector<dim>& x_rel, const std::array<int, dim>& cells,
+                             double h, Stencil<dim>& st) {
+  std::array<Basis1D, dim> b;
+  for (int a = 0; a < dim; ++a) b[a] = evaluate_basis_1d(kind, x_rel[a] / h, cells[a], h);
+  int n = 0;
+  if constexpr (dim == 2) {
+    for (int j = 0; j < b[1].count; ++j)
+      for (int i = 0; i < b[0].count; ++i, ++n) {
+        st.node[n] = {b[0].first + i, b[1].first + j};
+        st.weight[n] = b[0].value[i] * b[1].value[j];
+        st.gradient[n] = Vector<2>(b[0].slope[i] * b[1].value[j], b[0].value[i] * b[1].slope[j]);
+      }
+  } else {
+    for (int k = 0; k < b[2].count; ++k)
+      for (int j = 0; j < b[1].count; ++j)
+        for (int i = 0; i < b[0].count; ++i, ++n) {
+          st.node[n] = {b[0].first + i, b[1].first + j, b[2].first + k};
+          const double wi = b[0].value[i], wj = b[1].value[j], wk = b[2].value[k];
+          st.weight[n] = wi * wj * wk;
+          st.gradient[n] = Vector<3>(b[0].slope[i] * wj * wk, wi * b[1].slope[j] * wk, wi * wj * b[2].slope[k]);
+        }
+  }
+  st.count = n;
+}
+
+}  // namespace talus

@@ -1,0 +1,66 @@
+#pragma once
+// One run of a case: the particles, the grid, and the implicit time step.
+#include <iosfwd>
+#include <memory>
+#include <vector>
+
+#include "talus/io/config.hpp"
+#include "talus/io/vtk_output.hpp"
+#include "talus/solver/newton.hpp"
+
+namespace talus {
+
+struct StepReport {
+  bool converged = false;
+  double h = 0;
+  NewtonReport newton;
+  PetscInt active_points = 0;     // global
+  double transfer_seconds = 0;    // stencils + P2G + G2P
+  double solve_seconds = 0;       // active set + Newton
+};
+
+struct RunSummary {
+  long steps = 0, cutbacks = 0, newton_iterations = 0, linear_iterations = 0, outputs = 0;
+  double wall_seconds = 0, transfer_seconds = 0, solve_seconds = 0;
+};
+
+template <int dim>
+class Simulation {
+ public:
+  Simulation(const CaseConfig& config, MPI_Comm comm);
+
+  // One implicit step of size h. If Newton does not converge the particles
+  // are left exactly as they were and report.converged is false.
+  StepReport advance(double h);
+
+  // Runs to config.time.end with cut-backs; writes VTK output if enabled.
+  RunSummary run(std::ostream* progress);
+
+  double time() const { return time_; }
+  const Grid<dim>& grid() const { return *grid_; }
+  Particles<dim>& particles() { return *particles_; }
+  const CaseConfig& config() const { return config_; }
+
+  // Introspection of the last step's system (tests and benchmarks).
+  PetscInt last_system_size() const { return last_system_size_; }
+
+ private:
+  void check_finite() const;
+
+  CaseConfig config_;
+  MPI_Comm comm_;
+  std::unique_ptr<Grid<dim>> grid_;
+  std::unique_ptr<Particles<dim>> particles_;
+  std::unique_ptr<NewtonSolver<dim>> newton_;
+  std::vector<const Material*> materials_;
+  Vector<dim> gravity_;
+  double mass_threshold_ = 0;
+  double time_ = 0;
+  PetscInt last_system_size_ = 0;
+};
+
+// Applies the case file's solver.petsc_options under the talus_ prefix,
+// leaving any option already given on the command line untouched.
+void apply_case_petsc_options(const CaseConfig& config);
+
+}  // namespace talus

@@ -1,0 +1,56 @@
+#pragma once
+// The unknowns of one implicit step: velocities of the active grid points
+// (points carrying mass above a small threshold) only, numbered compactly
+// across ranks. An empty part of the grid adds nothing to the system.
+#include <petscvec.h>
+
+#include <array>
+#include <vector>
+
+#include "talus/io/config.hpp"
+#include "talus/transfer/transfer.hpp"
+
+namespace talus {
+
+template <int dim>
+class ActiveSet {
+ public:
+  ActiveSet() = default;
+  ~ActiveSet();
+  ActiveSet(const ActiveSet&) = delete;
+  ActiveSet& operator=(const ActiveSet&) = delete;
+
+  // Marks points with m_i > threshold active, numbers them (owned points of
+  // rank r after those of ranks < r), and builds the scatter between the
+  // compact unknown vector and the ghosted grid arrays. Velocity components
+  // on fixed/slip faces are flagged as constrained (they stay unknowns, with
+  // the trivial equation m_i v_i = 0, so the system size is active points x dim).
+  void build(const Grid<dim>& grid, const GridFields<dim>& fields, double threshold,
+             const std::array<FaceCondition, 6>& faces);
+
+  PetscInt owned_count() const { return owned_count_; }
+  PetscInt global_count() const { return global_count_; }
+  PetscInt compact_index(int local_point) const { return compact_[local_point]; }
+  const std::vector<int>& owned_points() const { return owned_points_; }  // ghosted index, compact order
+  bool constrained(int local_point, int component) const { return constrained_[dim * local_point + component]; }
+
+  // A new unknown vector (block size dim), compact layout.
+  Vec create_vector() const;
+  // Compact -> ghosted arrays (dim per point; inactive points get 0).
+  void to_grid(Vec compact, std::vector<double>& ghosted) const;
+  // Ghosted arrays -> compact, summing contributions of every rank (ADD).
+  void add_to_compact(const std::vector<double>& ghosted, Vec compact) const;
+
+ private:
+  void destroy();
+  MPI_Comm comm_ = MPI_COMM_NULL;
+  PetscInt owned_count_ = 0, global_count_ = 0;
+  std::vector<PetscInt> compact_;
+  std::vector<int> owned_points_;
+  std::vector<unsigned char> constrained_;
+  Vec layout_ = nullptr;  // compact template
+  Vec work_ = nullptr;    // sequential, ghosted points x dim
+  VecScatter scatter_ = nullptr;
+};
+
+}  // namespace talus

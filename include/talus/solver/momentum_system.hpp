@@ -1,0 +1,75 @@
+#pragma once
+// The nonlinear system of one implicit step (Moreau-Jean, theta-method):
+//
+//   F_i(v) = m_i (v_i - v_i^n) - h m_i g + h sum_p V_p sigma_p^theta(v) grad N_i(x_p) = 0
+//
+// for every active grid point i, where v_theta = theta v + (1 - theta) v^n,
+// L_p = sum_i v_theta,i (x) grad N_i(x_p), and the particle stress
+//   sigma_p^{n+1} = S(sigma*_p, h sym L_p),  sigma*_p = sigma_p^n + h (W sigma^n - sigma^n W),
+//   W = skew L_p (Jaumann rotation), sigma^theta = (1 - theta) sigma^n + theta sigma^{n+1}
+// comes from the material's stress update (docs/formulation.md). Constrained
+// velocity components (fixed/slip faces) carry the equation m_i v_i = 0.
+//
+// The Jacobian is m_i I + h theta^2 sum_p V_p grad N_i . A_p . grad N_j, with
+// A_p = d sigma^{n+1} / d L_p assembled from the material's consistent tangent
+// and the derivative of the Jaumann rotation, so Newton is exact.
+#include <petscmat.h>
+
+#include <vector>
+
+#include "talus/materials/material.hpp"
+#include "talus/solver/active_set.hpp"
+
+namespace talus {
+
+template <int dim>
+class MomentumSystem {
+ public:
+  static constexpr int nL = dim * dim;
+  using StressTangent = Eigen::Matrix<double, nL, nL>;  // (i*dim + j, k*dim + l): d sigma_ij / d L_kl
+
+  MomentumSystem(const Grid<dim>& grid, const Particles<dim>& particles, const std::vector<Stencil<dim>>& stencils,
+                 const GridFields<dim>& fields, const ActiveSet<dim>& active,
+                 const std::vector<const Material*>& materials, const Vector<dim>& gravity, double h, double theta);
+  ~MomentumSystem();
+  MomentumSystem(const MomentumSystem&) = delete;
+  MomentumSystem& operator=(const MomentumSystem&) = delete;
+
+  void residual(Vec v, Vec F);
+  void jacobian(Vec v, Mat J);
+  Mat create_matrix() const;  // preallocated for this step's couplings
+  Vec initial_guess() const;  // v^n + h g on free components, 0 on constrained ones
+  double momentum_scale() const;  // sum_i m_i (|v_i^n| + h |g|), all ranks
+
+  // After convergence: grid velocity v^{n+1} (ghosted, constraints applied),
+  // start-of-step v^n (same layout) and particle stresses sigma^{n+1}.
+  void finish(Vec v);
+  const std::vector<double>& end_velocity() const { return velocity_; }
+  const std::vector<double>& start_velocity() const { return velocity_old_; }
+  const std::vector<Voigt>& end_stress() const { return stress_end_; }
+
+ private:
+  void evaluate_particles(Vec v);
+  bool evaluated_at(Vec v) const;
+
+  const Grid<dim>& grid_;
+  const std::vector<Stencil<dim>>& stencils_;
+  const GridFields<dim>& fields_;
+  const ActiveSet<dim>& active_;
+  std::vector<const Material*> materials_;
+  Vector<dim> gravity_;
+  double h_, theta_;
+
+  // Committed particle state at the start of the step (frozen during Newton).
+  std::vector<Voigt> stress_old_;
+  std::vector<double> volume_;
+  std::vector<int> material_;
+
+  // Results of the last evaluation.
+  std::vector<double> velocity_, velocity_old_, force_;
+  std::vector<Voigt> stress_end_;
+  std::vector<StressTangent> tangent_;
+  Vec evaluated_at_ = nullptr;  // the v of the last evaluation
+};
+
+}  // namespace talus

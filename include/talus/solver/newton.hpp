@@ -1,0 +1,41 @@
+#pragma once
+// Newton's method for one implicit step, by PETSc SNES with the assembled
+// Jacobian and a KSP, all under the options prefix "talus_" (docs/solver.md).
+#include <petscsnes.h>
+
+#include <string>
+
+#include "talus/solver/momentum_system.hpp"
+
+namespace talus {
+
+struct NewtonReport {
+  bool converged = false;
+  PetscInt iterations = 0;
+  PetscInt linear_iterations = 0;
+  std::string reason;
+};
+
+template <int dim>
+class NewtonSolver {
+ public:
+  explicit NewtonSolver(MPI_Comm comm);
+  ~NewtonSolver();
+  NewtonSolver(const NewtonSolver&) = delete;
+  NewtonSolver& operator=(const NewtonSolver&) = delete;
+
+  // Solves F(v) = 0; on success the system holds v^{n+1} (MomentumSystem::finish).
+  NewtonReport solve(MomentumSystem<dim>& system);
+  SNES snes() const { return snes_; }
+
+ private:
+  SNES snes_ = nullptr;
+  bool user_atol_ = false;
+};
+
+// The default solver options (direct LU by MUMPS, full Newton steps, relative
+// tolerance 1e-10), set only where neither the command line nor the case file
+// chose a value.
+void set_default_solver_options();
+
+}  // namespace talus

@@ -1,0 +1,42 @@
+#pragma once
+// Particle <-> grid transfers (P2G, G2P) on the rank's ghosted grid arrays.
+//
+// P2G accumulates into a ghosted DMDA local vector and sums the ranks'
+// contributions with DMLocalToGlobal(ADD_VALUES), then brings the sums back to
+// the ghost points with DMGlobalToLocal: particles near a rank boundary are
+// handled exactly (docs/transfers.md).
+#include <vector>
+
+#include "talus/io/config.hpp"
+#include "talus/particles/particles.hpp"
+
+namespace talus {
+
+// Grid fields on the rank's ghosted points: values are complete (summed over
+// all ranks) on owned and ghost points alike.
+template <int dim>
+struct GridFields {
+  std::vector<double> mass;      // m_i
+  std::vector<double> velocity;  // v_i^n = (m v)_i / m_i, dim per point; 0 where m_i = 0
+};
+
+// Shape-function stencils of all local particles at their current positions.
+template <int dim>
+void compute_stencils(const Grid<dim>& grid, const Particles<dim>& particles, std::vector<Stencil<dim>>& stencils);
+
+// P2G of mass and momentum. APIC adds m_p N_ip C_p (x_i - x_p); FLIP/PIC uses v_p.
+template <int dim>
+void particles_to_grid(const Grid<dim>& grid, const Particles<dim>& particles,
+                       const std::vector<Stencil<dim>>& stencils, TransferScheme scheme, GridFields<dim>& out);
+
+// G2P after the implicit solve. v_new: end-of-step grid velocity v^{n+1};
+// v_old: start-of-step v^n (both ghosted, dim per point). Positions and the
+// deformation gradient advance with v_theta = theta v^{n+1} + (1-theta) v^n
+// (Moreau-Jean q_{k+1} = q_k + h v_{k+theta}); particle velocities take
+// v^{n+1} by APIC (v_p, C_p = sum v_i grad N_i^T) or the FLIP/PIC blend.
+template <int dim>
+void grid_to_particles(const Grid<dim>& grid, Particles<dim>& particles, const std::vector<Stencil<dim>>& stencils,
+                       const std::vector<double>& v_new, const std::vector<double>& v_old, double h, double theta,
+                       const TransferConfig& transfer);
+
+}  // namespace talus

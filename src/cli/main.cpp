@@ -1,0 +1,81 @@
+// talus command line: talus run case.yaml [PETSc options] | talus check case.yaml
+#include <petscsys.h>
+
+#include <cstring>
+#include <iomanip>
+#include <iostream>
+#include <string>
+
+#include "talus/io/config.hpp"
+#include "talus/simulation.hpp"
+
+namespace {
+
+const char* usage =
+    "talus " TALUS_VERSION " - implicit Material Point Method for landslides\n\n"
+    "usage:\n"
+    "  talus run   CASE.yaml [PETSc options]   run a case (ParaView output in output.directory)\n"
+    "  talus check CASE.yaml                   validate a case file and exit\n"
+    "  talus --help | --version\n\n"
+    "Solver options go to PETSc with the prefix -talus_, e.g. -talus_snes_monitor,\n"
+    "-talus_ksp_type gmres -talus_pc_type gamg (see docs/solver.md).\n"
+    "Exit codes: 0 success, 1 internal error, 2 bad input, 3 the simulation failed.\n";
+
+template <int dim>
+int run_case(const talus::CaseConfig& config, int rank) {
+  talus::Simulation<dim> sim(config, PETSC_COMM_WORLD);
+  if (rank == 0)
+    std::cout << "talus: " << dim << "D case " << config.source_file << ", " << sim.particles().global_count()
+              << " particles, grid " << sim.grid().cells()[0] << " x " << sim.grid().cells()[1]
+              << (dim == 3 ? " x " + std::to_string(sim.grid().cells()[dim - 1]) : std::string()) << " cells\n";
+  const talus::RunSummary s = sim.run(&std::cout);
+  if (rank == 0) {
+    std::cout << std::setprecision(4) << "talus: done in " << s.wall_seconds << " s: " << s.steps << " steps, "
+              << s.cutbacks << " cut-backs, " << s.newton_iterations << " Newton and " << s.linear_iterations
+              << " KSP iterations, " << s.outputs << " outputs";
+    if (config.output.enabled) std::cout << " (" << config.output.directory << "/particles.pvd)";
+    std::cout << "\n";
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2 || !std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h")) {
+    std::cout << usage;
+    return argc < 2 ? 2 : 0;
+  }
+  if (!std::strcmp(argv[1], "--version")) {
+    std::cout << "talus " TALUS_VERSION "\n";
+    return 0;
+  }
+  const std::string command = argv[1];
+  if ((command != "run" && command != "check") || argc < 3) {
+    std::cerr << "talus: unknown command line; see talus --help\n";
+    return 2;
+  }
+  if (PetscInitialize(&argc, &argv, nullptr, nullptr)) return 1;
+  int rank = 0;
+  MPI_Comm_rank(PETSC_COMM_WORLD, &rank);
+  int code = 0;
+  try {
+    const talus::CaseConfig config = talus::load_case(argv[2]);
+    if (command == "check") {
+      if (rank == 0) std::cout << "talus: " << argv[2] << " is a valid " << config.dim << "D case\n";
+    } else {
+      code = config.dim == 2 ? run_case<2>(config, rank) : run_case<3>(config, rank);
+    }
+  } catch (const talus::InputError& e) {
+    if (rank == 0) std::cerr << "talus: error: " << e.what() << "\n";
+    code = 2;
+  } catch (const talus::SimulationError& e) {
+    if (rank == 0) std::cerr << "talus: simulation failed: " << e.what() << "\n";
+    code = 3;
+  } catch (const std::exception& e) {
+    std::cerr << "talus: internal error on rank " << rank << ": " << e.what() << "\n";
+    code = 1;
+  }
+  PetscFinalize();
+  return code;
+}

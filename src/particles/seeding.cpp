@@ -1,0 +1,77 @@
+#include "talus/particles/seeding.hpp"
+
+#include <cmath>
+#include <vector>
+
+namespace talus {
+
+template <int dim>
+std::int64_t seed_box_body(Particles<dim>& particles, const Grid<dim>& grid, const BodyConfig& body,
+                           const Material& material, int body_index, std::int64_t first_id) {
+  const double h = grid.cell_size();
+  const int ppc = body.particles_per_cell;
+  const double spacing = h / ppc;
+  // Sub-cell lattice: point s on axis a sits at lower + (s + 1/2) * spacing.
+  std::array<long, dim> first{}, count{};
+  std::int64_t total = 1;
+  for (int a = 0; a < dim; ++a) {
+    const double lo = (body.box_lower[a] - grid.lower()[a]) / spacing - 0.5;
+    const double hi = (body.box_upper[a] - grid.lower()[a]) / spacing - 0.5;
+    first[a] = static_cast<long>(std::ceil(lo - 1e-9));
+    const long last = static_cast<long>(std::floor(hi + 1e-9));
+    count[a] = std::max(0L, last - first[a] + 1);
+    total *= count[a];
+  }
+  PetscMPIInt rank;
+  MPI_Comm_rank(grid.comm(), &rank);
+
+  std::vector<std::int64_t> mine;
+  std::array<long, dim> s{};
+  for (std::int64_t id = 0; id < total; ++id) {
+    std::int64_t r = id;
+    Vector<dim> x;
+    for (int a = 0; a < dim; ++a) {
+      s[a] = first[a] + r % count[a];
+      r /= count[a];
+      x[a] = grid.lower()[a] + (s[a] + 0.5) * spacing;
+    }
+    if (grid.owner_rank(x) == rank) mine.push_back(id);
+  }
+
+  const PetscInt start = particles.add(static_cast<PetscInt>(mine.size()));
+  DM sw = particles.swarm();
+  FieldView<PetscReal> pos(sw, field::position), vel(sw, field::velocity), aff(sw, field::affine_velocity),
+      disp(sw, field::displacement), mass(sw, field::mass), vol0(sw, field::initial_volume),
+      defgrad(sw, field::deformation_gradient), stress(sw, field::stress);
+  FieldView<PetscInt> mat(sw, field::material_id), bid(sw, field::body_id);
+  FieldView<std::int64_t> pid(sw, field::particle_id);
+  const double volume = std::pow(spacing, dim);
+  for (std::size_t k = 0; k < mine.size(); ++k) {
+    const PetscInt p = start + static_cast<PetscInt>(k);
+    std::int64_t r = mine[k];
+    for (int a = 0; a < dim; ++a) {
+      pos[dim * p + a] = grid.lower()[a] + (first[a] + r % count[a] + 0.5) * spacing;
+      r /= count[a];
+      vel[dim * p + a] = body.velocity[a];
+      disp[dim * p + a] = 0.0;
+    }
+    for (int i = 0; i < dim * dim; ++i) {
+      aff[dim * dim * p + i] = 0.0;
+      defgrad[dim * dim * p + i] = (i % (dim + 1) == 0) ? 1.0 : 0.0;
+    }
+    for (int i = 0; i < 6; ++i) stress[6 * p + i] = 0.0;
+    mass[p] = material.density() * volume;
+    vol0[p] = volume;
+    mat[p] = body.material;
+    bid[p] = body_index;
+    pid[p] = first_id + mine[k];
+  }
+  return total;
+}
+
+template std::int64_t seed_box_body<2>(Particles<2>&, const Grid<2>&, const BodyConfig&, const Material&, int,
+                                       std::int64_t);
+template std::int64_t seed_box_body<3>(Particles<3>&, const Grid<3>&, const BodyConfig&, const Material&, int,
+                                       std::int64_t);
+
+}  // namespace talus

@@ -1,0 +1,199 @@
+#include "talus/simulation.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <iomanip>
+#include <ostream>
+#include <sstream>
+
+#include "talus/particles/seeding.hpp"
+
+namespace talus {
+
+namespace {
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+std::string clock_text(double s) {
+  const long t = static_cast<long>(std::max(0.0, s));
+  std::ostringstream os;
+  os << std::setfill('0') << std::setw(2) << t / 3600 << ":" << std::setw(2) << (t / 60) % 60 << ":" << std::setw(2)
+     << t % 60;
+  return os.str();
+}
+}  // namespace
+
+void apply_case_petsc_options(const CaseConfig& config) {
+  for (const auto& [key, value] : config.solver.petsc_options) {
+    const std::string name = "-talus_" + key;
+    PetscBool set = PETSC_FALSE;
+    TALUS_PETSC(PetscOptionsHasName(nullptr, nullptr, name.c_str(), &set));
+    if (!set) TALUS_PETSC(PetscOptionsSetValue(nullptr, name.c_str(), value.empty() ? nullptr : value.c_str()));
+  }
+}
+
+template <int dim>
+Simulation<dim>::Simulation(const CaseConfig& config, MPI_Comm comm) : config_(config), comm_(comm) {
+  if (config.dim != dim) throw InputError(config.source_file + ": the case is " + std::to_string(config.dim) + "D");
+  Vector<dim> lo, hi;
+  for (int a = 0; a < dim; ++a) {
+    lo[a] = config.grid.lower[a];
+    hi[a] = config.grid.upper[a];
+    gravity_[a] = config.gravity[a];
+  }
+  grid_ = std::make_unique<Grid<dim>>(comm, lo, hi, config.grid.cell_size, config.grid.shape);
+  particles_ = std::make_unique<Particles<dim>>(*grid_);
+  for (const auto& m : config.materials) materials_.push_back(m.law.get());
+  std::int64_t next_id = 0;
+  for (std::size_t b = 0; b < config.bodies.size(); ++b) {
+    const BodyConfig& body = config.bodies[b];
+    next_id += seed_box_body<dim>(*particles_, *grid_, body, *materials_[body.material], static_cast<int>(b), next_id);
+  }
+  double local_max = 0.0;
+  {
+    FieldView<PetscReal> m(particles_->swarm(), field::mass);
+    for (PetscInt p = 0; p < particles_->local_count(); ++p) local_max = std::max(local_max, m[p]);
+  }
+  double max_mass = 0.0;
+  MPI_Allreduce(&local_max, &max_mass, 1, MPI_DOUBLE, MPI_MAX, comm);
+  mass_threshold_ = config.solver.active_mass_ratio * max_mass;
+  apply_case_petsc_options(config);
+  newton_ = std::make_unique<NewtonSolver<dim>>(comm);
+}
+
+template <int dim>
+StepReport Simulation<dim>::advance(double h) {
+  StepReport report;
+  report.h = h;
+  const auto t0 = std::chrono::steady_clock::now();
+
+  // 1. Locate particles: shape-function stencils at x_p^n.
+  std::vector<Stencil<dim>> stencils;
+  compute_stencils(*grid_, *particles_, stencils);
+  // 2. P2G: nodal mass and momentum (and v^n).
+  GridFields<dim> fields;
+  particles_to_grid(*grid_, *particles_, stencils, config_.transfer.scheme, fields);
+  report.transfer_seconds = seconds_since(t0);
+
+  const auto t1 = std::chrono::steady_clock::now();
+  // 3. Unknowns: velocities of the active grid points.
+  ActiveSet<dim> active;
+  active.build(*grid_, fields, mass_threshold_, config_.faces);
+  report.active_points = active.global_count();
+  last_system_size_ = active.global_count() * dim;
+  // 4. Freeze the committed particle state and 5. solve F(v) = 0 by Newton.
+  MomentumSystem<dim> system(*grid_, *particles_, stencils, fields, active, materials_, gravity_, h,
+                             config_.time.theta);
+  if (active.global_count() > 0) {
+    report.newton = newton_->solve(system);
+  } else {
+    report.newton.converged = true;
+    report.newton.reason = "no active grid points";
+  }
+  report.solve_seconds = seconds_since(t1);
+  if (!report.newton.converged) return report;
+
+  // 6. G2P: velocities, affine velocities, positions, deformation gradients.
+  const auto t2 = std::chrono::steady_clock::now();
+  grid_to_particles(*grid_, *particles_, stencils, system.end_velocity(), system.start_velocity(), h,
+                    config_.time.theta, config_.transfer);
+  // 7. Commit the material state: sigma^{n+1} at the converged velocities.
+  {
+    FieldView<PetscReal> s(particles_->swarm(), field::stress);
+    const auto& end = system.end_stress();
+    for (std::size_t p = 0; p < end.size(); ++p) Eigen::Map<Voigt>(s.data() + 6 * p) = end[p];
+  }
+  check_finite();
+  particles_->migrate();
+  report.transfer_seconds += seconds_since(t2);
+  time_ += h;
+  report.converged = true;
+  return report;
+}
+
+template <int dim>
+void Simulation<dim>::check_finite() const {
+  const PetscInt n = particles_->local_count();
+  int bad = 0;
+  {
+    DM sw = particles_->swarm();
+    FieldView<PetscReal> x(sw, field::position), v(sw, field::velocity), s(sw, field::stress);
+    for (PetscInt p = 0; p < n && !bad; ++p) {
+      for (int a = 0; a < dim; ++a) bad |= !std::isfinite(x[dim * p + a]) || !std::isfinite(v[dim * p + a]);
+      for (int i = 0; i < 6; ++i) bad |= !std::isfinite(s[6 * p + i]);
+    }
+  }
+  int any = 0;
+  MPI_Allreduce(&bad, &any, 1, MPI_INT, MPI_MAX, comm_);
+  if (any)
+    throw SimulationError("a particle position, velocity or stress is not finite after the step ending at t = " +
+                          std::to_string(time_) + "; the run stops (the last output is the last good state)");
+}
+
+template <int dim>
+RunSummary Simulation<dim>::run(std::ostream* progress) {
+  RunSummary summary;
+  const auto start = std::chrono::steady_clock::now();
+  int rank;
+  MPI_Comm_rank(comm_, &rank);
+  const TimeConfig& tc = config_.time;
+  std::unique_ptr<VtkSeries<dim>> vtk;
+  if (config_.output.enabled) {
+    vtk = std::make_unique<VtkSeries<dim>>(comm_, config_.output.directory);
+    vtk->write(*particles_, time_);
+    ++summary.outputs;
+  }
+  const double eps = 1e-12 * tc.end;
+  double next_output = config_.output.interval > 0 ? config_.output.interval : tc.end;
+  double h = tc.step;
+  long calm_steps = 0;
+  while (time_ < tc.end - eps) {
+    const double h_try = std::min(h, tc.end - time_);
+    StepReport r = advance(h_try);
+    summary.newton_iterations += r.newton.iterations;
+    summary.linear_iterations += r.newton.linear_iterations;
+    summary.transfer_seconds += r.transfer_seconds;
+    summary.solve_seconds += r.solve_seconds;
+    if (!r.converged) {
+      ++summary.cutbacks;
+      h *= 0.5;
+      calm_steps = 0;
+      if (progress && rank == 0)
+        *progress << "  Newton failed (" << r.newton.reason << ") at t = " << time_ << " with h = " << h_try
+                  << "; retrying with h = " << h << "\n";
+      if (h < tc.min_step_ratio * tc.step)
+        throw SimulationError("Newton did not converge at t = " + std::to_string(time_) +
+                              " even with h = " + std::to_string(h_try) + " (" + r.newton.reason + ")");
+      continue;
+    }
+    ++summary.steps;
+    // After a cut-back, h grows back (x2 every 3 successful steps) to the nominal step.
+    if (h < tc.step && ++calm_steps >= 3) {
+      h = std::min(tc.step, 2.0 * h);
+      calm_steps = 0;
+    }
+    const bool due = time_ >= next_output - eps || time_ >= tc.end - eps;
+    if (vtk && due) {
+      vtk->write(*particles_, time_);
+      ++summary.outputs;
+      while (next_output <= time_ + eps) next_output += config_.output.interval > 0 ? config_.output.interval : tc.end;
+    }
+    if (progress && rank == 0) {
+      const double elapsed = seconds_since(start);
+      const double eta = elapsed / time_ * (tc.end - time_);
+      *progress << "step " << std::setw(6) << summary.steps << "  t " << std::scientific << std::setprecision(4)
+                << time_ << "  h " << std::setprecision(3) << r.h << std::defaultfloat << "  newton "
+                << r.newton.iterations << "  ksp " << r.newton.linear_iterations << "  active " << r.active_points
+                << "  ETA " << clock_text(eta) << (due && vtk ? "  [output]" : "") << "\n";
+      progress->flush();
+    }
+  }
+  summary.wall_seconds = seconds_since(start);
+  return summary;
+}
+
+template class Simulation<2>;
+template class Simulation<3>;
+
+}  // namespace talus

@@ -1,0 +1,130 @@
+#include "talus/solver/active_set.hpp"
+
+#include <algorithm>
+
+namespace talus {
+
+template <int dim>
+ActiveSet<dim>::~ActiveSet() {
+  destroy();
+}
+
+template <int dim>
+void ActiveSet<dim>::destroy() {
+  VecScatterDestroy(&scatter_);
+  VecDestroy(&work_);
+  VecDestroy(&layout_);
+}
+
+template <int dim>
+void ActiveSet<dim>::build(const Grid<dim>& grid, const GridFields<dim>& fields, double threshold,
+                           const std::array<FaceCondition, 6>& faces) {
+  destroy();
+  comm_ = grid.comm();
+  const int n = grid.ghosted_count();
+  compact_.assign(n, -1);
+  owned_points_.clear();
+  constrained_.assign(static_cast<std::size_t>(n) * dim, 0);
+
+  for (int i = 0; i < n; ++i) {
+    const auto ijk = grid.global_index(i);
+    for (int a = 0; a < dim; ++a) {
+      const FaceCondition lo = faces[2 * a], hi = faces[2 * a + 1];
+      FaceCondition f = FaceCondition::free;
+      if (ijk[a] == 0) f = lo;
+      if (ijk[a] == grid.points()[a] - 1) f = hi;
+      if (f == FaceCondition::fixed)
+        for (int c = 0; c < dim; ++c) constrained_[dim * i + c] = 1;
+      else if (f == FaceCondition::slip)
+        constrained_[dim * i + a] = 1;
+    }
+    if (fields.mass[i] > threshold && grid.is_owned(ijk)) owned_points_.push_back(i);
+  }
+  owned_count_ = static_cast<PetscInt>(owned_points_.size());
+  // PETSc's parallel layout numbers the owned active points of rank r after those of ranks < r.
+  TALUS_PETSC(VecCreateMPI(comm_, owned_count_ * dim, PETSC_DETERMINE, &layout_));
+  TALUS_PETSC(VecSetBlockSize(layout_, dim));
+  PetscInt first = 0;
+  TALUS_PETSC(VecGetOwnershipRange(layout_, &first, nullptr));
+  TALUS_PETSC(VecGetSize(layout_, &global_count_));
+  first /= dim;
+  global_count_ /= dim;
+
+  // Compact indices of ghost points come from their owners through the DMDA.
+  {
+    DM da = grid.dm();
+    Vec g, l;
+    TALUS_PETSC(DMGetGlobalVector(da, &g));
+    TALUS_PETSC(DMGetLocalVector(da, &l));
+    TALUS_PETSC(VecSet(g, -1.0));
+    PetscScalar* ga;
+    TALUS_PETSC(VecGetArray(g, &ga));
+    // The global vector of a DMDA stores owned points in the same (x fastest) order.
+    const auto& s = grid.owned_start();
+    const auto& m = grid.owned_size();
+    for (PetscInt k = 0; k < owned_count_; ++k) {
+      const auto ijk = grid.global_index(owned_points_[k]);
+      int idx = 0;
+      for (int a = dim - 1; a >= 0; --a) idx = idx * m[a] + (ijk[a] - s[a]);
+      ga[idx] = static_cast<PetscScalar>(first + k);
+    }
+    TALUS_PETSC(VecRestoreArray(g, &ga));
+    TALUS_PETSC(DMGlobalToLocalBegin(da, g, INSERT_VALUES, l));
+    TALUS_PETSC(DMGlobalToLocalEnd(da, g, INSERT_VALUES, l));
+    const PetscScalar* la;
+    TALUS_PETSC(VecGetArrayRead(l, &la));
+    for (int i = 0; i < n; ++i) compact_[i] = static_cast<PetscInt>(std::lround(la[i]));
+    TALUS_PETSC(VecRestoreArrayRead(l, &la));
+    TALUS_PETSC(DMRestoreLocalVector(da, &l));
+    TALUS_PETSC(DMRestoreGlobalVector(da, &g));
+  }
+
+  TALUS_PETSC(VecCreateSeq(PETSC_COMM_SELF, static_cast<PetscInt>(n) * dim, &work_));
+  std::vector<PetscInt> from, to;
+  for (int i = 0; i < n; ++i)
+    if (compact_[i] >= 0)
+      for (int c = 0; c < dim; ++c) {
+        from.push_back(compact_[i] * dim + c);
+        to.push_back(static_cast<PetscInt>(i) * dim + c);
+      }
+  IS is_from, is_to;
+  TALUS_PETSC(ISCreateGeneral(PETSC_COMM_SELF, static_cast<PetscInt>(from.size()), from.data(), PETSC_COPY_VALUES,
+                              &is_from));
+  TALUS_PETSC(ISCreateGeneral(PETSC_COMM_SELF, static_cast<PetscInt>(to.size()), to.data(), PETSC_COPY_VALUES, &is_to));
+  TALUS_PETSC(VecScatterCreate(layout_, is_from, work_, is_to, &scatter_));
+  TALUS_PETSC(ISDestroy(&is_from));
+  TALUS_PETSC(ISDestroy(&is_to));
+}
+
+template <int dim>
+Vec ActiveSet<dim>::create_vector() const {
+  Vec v;
+  TALUS_PETSC(VecDuplicate(layout_, &v));
+  return v;
+}
+
+template <int dim>
+void ActiveSet<dim>::to_grid(Vec compact, std::vector<double>& ghosted) const {
+  TALUS_PETSC(VecZeroEntries(work_));
+  TALUS_PETSC(VecScatterBegin(scatter_, compact, work_, INSERT_VALUES, SCATTER_FORWARD));
+  TALUS_PETSC(VecScatterEnd(scatter_, compact, work_, INSERT_VALUES, SCATTER_FORWARD));
+  const PetscScalar* w;
+  TALUS_PETSC(VecGetArrayRead(work_, &w));
+  ghosted.assign(w, w + compact_.size() * dim);
+  TALUS_PETSC(VecRestoreArrayRead(work_, &w));
+}
+
+template <int dim>
+void ActiveSet<dim>::add_to_compact(const std::vector<double>& ghosted, Vec compact) const {
+  PetscScalar* w;
+  TALUS_PETSC(VecGetArray(work_, &w));
+  std::copy(ghosted.begin(), ghosted.end(), w);
+  TALUS_PETSC(VecRestoreArray(work_, &w));
+  TALUS_PETSC(VecScatterBegin(scatter_, work_, compact, ADD_VALUES, SCATTER_REVERSE));
+  TALUS_PETSC(VecScatterEnd(scatter_, work_, compact, ADD_VALUES, SCATTER_REVERSE));
+}
+
+template class ActiveSet<2>;
+template class ActiveSet<3>;
+
+}  // namespace talus

@@ -1,0 +1,260 @@
+#include "talus/solver/momentum_system.hpp"
+
+#include <cmath>
+
+namespace talus {
+
+template <int dim>
+MomentumSystem<dim>::MomentumSystem(const Grid<dim>& grid, const Particles<dim>& particles,
+                                    const std::vector<Stencil<dim>>& stencils, const GridFields<dim>& fields,
+                                    const ActiveSet<dim>& active, const std::vector<const Material*>& materials,
+                                    const Vector<dim>& gravity, double h, double theta)
+    : grid_(grid),
+      stencils_(stencils),
+      fields_(fields),
+      active_(active),
+      materials_(materials),
+      gravity_(gravity),
+      h_(h),
+      theta_(theta) {
+  const PetscInt np = particles.local_count();
+  DM sw = particles.swarm();
+  FieldView<PetscReal> s(sw, field::stress), v0(sw, field::initial_volume), F(sw, field::deformation_gradient);
+  FieldView<PetscInt> mat(sw, field::material_id);
+  stress_old_.resize(np);
+  volume_.resize(np);
+  material_.resize(np);
+  for (PetscInt p = 0; p < np; ++p) {
+    stress_old_[p] = Eigen::Map<const Voigt>(s.data() + 6 * p);
+    const Eigen::Map<const Eigen::Matrix<double, dim, dim, Eigen::RowMajor>> Fp(F.data() + dim * dim * p);
+    volume_[p] = v0[p] * Fp.determinant();  // current volume: the step works on the configuration at t^n
+    material_[p] = mat[p];
+  }
+  stress_end_ = stress_old_;
+  tangent_.resize(np);
+
+  // v^n on the unknowns only: inactive points and constrained components carry none.
+  const int n = grid.ghosted_count();
+  velocity_old_.assign(static_cast<std::size_t>(n) * dim, 0.0);
+  for (int i = 0; i < n; ++i)
+    if (active.compact_index(i) >= 0)
+      for (int c = 0; c < dim; ++c)
+        if (!active.constrained(i, c)) velocity_old_[dim * i + c] = fields.velocity[dim * i + c];
+}
+
+template <int dim>
+MomentumSystem<dim>::~MomentumSystem() {
+  VecDestroy(&evaluated_at_);
+}
+
+template <int dim>
+bool MomentumSystem<dim>::evaluated_at(Vec v) const {
+  if (!evaluated_at_) return false;
+  PetscBool same = PETSC_FALSE;
+  TALUS_PETSC(VecEqual(v, evaluated_at_, &same));
+  return same;
+}
+
+template <int dim>
+void MomentumSystem<dim>::evaluate_particles(Vec v) {
+  active_.to_grid(v, velocity_);
+  const int n = grid_.ghosted_count();
+  for (int i = 0; i < n; ++i)
+    for (int c = 0; c < dim; ++c)
+      if (active_.constrained(i, c)) velocity_[dim * i + c] = 0.0;
+  force_.assign(velocity_.size(), 0.0);
+
+  const std::size_t np = stencils_.size();
+  MaterialPointUpdate update;
+  for (std::size_t p = 0; p < np; ++p) {
+    const Stencil<dim>& st = stencils_[p];
+    Matrix<dim> L = Matrix<dim>::Zero();
+    for (int k = 0; k < st.count; ++k) {
+      const std::size_t o = static_cast<std::size_t>(dim) * st.local[k];
+      const Vector<dim> vt = theta_ * Eigen::Map<const Vector<dim>>(velocity_.data() + o) +
+                             (1.0 - theta_) * Eigen::Map<const Vector<dim>>(velocity_old_.data() + o);
+      L += vt * st.gradient[k].transpose();
+    }
+    Eigen::Matrix3d L3 = Eigen::Matrix3d::Zero();
+    L3.template topLeftCorner<dim, dim>() = L;
+    const Eigen::Matrix3d W = 0.5 * (L3 - L3.transpose());
+    const Eigen::Matrix3d sn = voigt_to_tensor(stress_old_[p]);
+    const Voigt rotated = tensor_to_voigt(sn + h_ * (W * sn - sn * W));
+    Voigt strain;
+    strain << h_ * L3(0, 0), h_ * L3(1, 1), h_ * L3(2, 2), h_ * (L3(1, 2) + L3(2, 1)), h_ * (L3(0, 2) + L3(2, 0)),
+        h_ * (L3(0, 1) + L3(1, 0));
+    materials_[material_[p]]->update(rotated, strain, nullptr, nullptr, update);
+    stress_end_[p] = update.stress;
+
+    // A = d sigma^{n+1}_ij / d L_kl = h D[ij, kl] + S[ij, :] d sigma*/d L_kl, with
+    // d sigma*_ij / d L_kl = h/2 (d_ik s_lj - d_il s_kj - s_ik d_lj + s_il d_kj).
+    StressTangent& A = tangent_[p];
+    for (int k = 0; k < dim; ++k)
+      for (int l = 0; l < dim; ++l) {
+        Eigen::Matrix3d dR = Eigen::Matrix3d::Zero();
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j)
+            dR(i, j) = 0.5 * h_ *
+                       ((i == k ? sn(l, j) : 0.0) - (i == l ? sn(k, j) : 0.0) - (l == j ? sn(i, k) : 0.0) +
+                        (k == j ? sn(i, l) : 0.0));
+        const Voigt column = h_ * update.tangent.col(voigt_index(k, l)) + update.trial_sensitivity * tensor_to_voigt(dR);
+        for (int i = 0; i < dim; ++i)
+          for (int j = 0; j < dim; ++j) A(i * dim + j, k * dim + l) = column[voigt_index(i, j)];
+      }
+
+    const Voigt st_theta = (1.0 - theta_) * stress_old_[p] + theta_ * update.stress;
+    const Eigen::Matrix3d sigma = voigt_to_tensor(st_theta);
+    const Matrix<dim> s_dim = sigma.template topLeftCorner<dim, dim>();
+    for (int k = 0; k < st.count; ++k) {
+      Eigen::Map<Vector<dim>> f(force_.data() + static_cast<std::size_t>(dim) * st.local[k]);
+      f += volume_[p] * (s_dim * st.gradient[k]);
+    }
+  }
+  if (!evaluated_at_) TALUS_PETSC(VecDuplicate(v, &evaluated_at_));
+  TALUS_PETSC(VecCopy(v, evaluated_at_));
+}
+
+template <int dim>
+void MomentumSystem<dim>::residual(Vec v, Vec F) {
+  evaluate_particles(v);
+  const int n = grid_.ghosted_count();
+  for (int i = 0; i < n; ++i)
+    for (int c = 0; c < dim; ++c) force_[dim * i + c] = active_.constrained(i, c) ? 0.0 : h_ * force_[dim * i + c];
+  TALUS_PETSC(VecZeroEntries(F));
+  active_.add_to_compact(force_, F);
+
+  PetscScalar* f;
+  const PetscScalar* x;
+  TALUS_PETSC(VecGetArray(F, &f));
+  TALUS_PETSC(VecGetArrayRead(v, &x));
+  const auto& owned = active_.owned_points();
+  for (std::size_t k = 0; k < owned.size(); ++k) {
+    const int i = owned[k];
+    const double m = fields_.mass[i];
+    for (int c = 0; c < dim; ++c) {
+      const std::size_t r = dim * k + c;
+      if (active_.constrained(i, c))
+        f[r] = m * x[r];
+      else
+        f[r] += m * (x[r] - velocity_old_[dim * i + c]) - h_ * m * gravity_[c];
+    }
+  }
+  TALUS_PETSC(VecRestoreArrayRead(v, &x));
+  TALUS_PETSC(VecRestoreArray(F, &f));
+}
+
+template <int dim>
+void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
+  if (!evaluated_at(v)) evaluate_particles(v);
+  TALUS_PETSC(MatZeroEntries(J));
+  constexpr int max_rows = Stencil<dim>::max_nodes * dim;
+  std::vector<double> element(max_rows * max_rows);
+  std::array<PetscInt, Stencil<dim>::max_nodes> rows;
+  const double scale = h_ * theta_ * theta_;
+  for (std::size_t p = 0; p < stencils_.size(); ++p) {
+    const Stencil<dim>& st = stencils_[p];
+    const int ns = st.count, nr = ns * dim;
+    const StressTangent& A = tangent_[p];
+    for (int b = 0; b < ns; ++b) {
+      rows[b] = active_.compact_index(st.local[b]);
+      // G(ij, k) = sum_l A(ij, kl) dN_b/dx_l
+      Eigen::Matrix<double, nL, dim> G;
+      for (int k = 0; k < dim; ++k) {
+        G.col(k).setZero();
+        for (int l = 0; l < dim; ++l) G.col(k) += A.col(k * dim + l) * st.gradient[b][l];
+      }
+      for (int a = 0; a < ns; ++a)
+        for (int i = 0; i < dim; ++i)
+          for (int k = 0; k < dim; ++k) {
+            double value = 0.0;
+            for (int j = 0; j < dim; ++j) value += st.gradient[a][j] * G(i * dim + j, k);
+            const bool cut = active_.constrained(st.local[a], i) || active_.constrained(st.local[b], k);
+            element[(a * dim + i) * nr + b * dim + k] = cut ? 0.0 : scale * volume_[p] * value;
+          }
+    }
+    TALUS_PETSC(MatSetValuesBlocked(J, ns, rows.data(), ns, rows.data(), element.data(), ADD_VALUES));
+  }
+  PetscInt first;
+  TALUS_PETSC(VecGetOwnershipRange(v, &first, nullptr));
+  const auto& owned = active_.owned_points();
+  for (std::size_t k = 0; k < owned.size(); ++k)
+    for (int c = 0; c < dim; ++c) {
+      const PetscInt r = first + static_cast<PetscInt>(dim * k + c);
+      TALUS_PETSC(MatSetValue(J, r, r, fields_.mass[owned[k]], ADD_VALUES));
+    }
+  TALUS_PETSC(MatAssemblyBegin(J, MAT_FINAL_ASSEMBLY));
+  TALUS_PETSC(MatAssemblyEnd(J, MAT_FINAL_ASSEMBLY));
+}
+
+template <int dim>
+Mat MomentumSystem<dim>::create_matrix() const {
+  const PetscInt nloc = active_.owned_count() * dim, nglob = active_.global_count() * dim;
+  MPI_Comm comm = grid_.comm();
+  Mat pre, J;
+  TALUS_PETSC(MatCreate(comm, &pre));
+  TALUS_PETSC(MatSetType(pre, MATPREALLOCATOR));
+  TALUS_PETSC(MatSetSizes(pre, nloc, nloc, nglob, nglob));
+  TALUS_PETSC(MatSetBlockSize(pre, dim));
+  TALUS_PETSC(MatSetUp(pre));
+  constexpr int max_rows = Stencil<dim>::max_nodes * dim;
+  const std::vector<double> zeros(max_rows * max_rows, 0.0);
+  std::array<PetscInt, Stencil<dim>::max_nodes> rows;
+  for (const Stencil<dim>& st : stencils_) {
+    for (int b = 0; b < st.count; ++b) rows[b] = active_.compact_index(st.local[b]);
+    TALUS_PETSC(MatSetValuesBlocked(pre, st.count, rows.data(), st.count, rows.data(), zeros.data(), INSERT_VALUES));
+  }
+  PetscInt first = 0;
+  {
+    Vec v = active_.create_vector();
+    TALUS_PETSC(VecGetOwnershipRange(v, &first, nullptr));
+    TALUS_PETSC(VecDestroy(&v));
+  }
+  for (PetscInt k = 0; k < active_.owned_count(); ++k) {
+    const PetscInt r = first / dim + k;
+    TALUS_PETSC(MatSetValuesBlocked(pre, 1, &r, 1, &r, zeros.data(), INSERT_VALUES));
+  }
+  TALUS_PETSC(MatAssemblyBegin(pre, MAT_FINAL_ASSEMBLY));
+  TALUS_PETSC(MatAssemblyEnd(pre, MAT_FINAL_ASSEMBLY));
+  TALUS_PETSC(MatCreate(comm, &J));
+  TALUS_PETSC(MatSetType(J, MATAIJ));
+  TALUS_PETSC(MatSetSizes(J, nloc, nloc, nglob, nglob));
+  TALUS_PETSC(MatSetBlockSize(J, dim));
+  TALUS_PETSC(MatPreallocatorPreallocate(pre, PETSC_TRUE, J));
+  TALUS_PETSC(MatDestroy(&pre));
+  return J;
+}
+
+template <int dim>
+Vec MomentumSystem<dim>::initial_guess() const {
+  Vec v = active_.create_vector();
+  PetscScalar* x;
+  TALUS_PETSC(VecGetArray(v, &x));
+  const auto& owned = active_.owned_points();
+  for (std::size_t k = 0; k < owned.size(); ++k)
+    for (int c = 0; c < dim; ++c)
+      x[dim * k + c] =
+          active_.constrained(owned[k], c) ? 0.0 : velocity_old_[dim * owned[k] + c] + h_ * gravity_[c];
+  TALUS_PETSC(VecRestoreArray(v, &x));
+  return v;
+}
+
+template <int dim>
+double MomentumSystem<dim>::momentum_scale() const {
+  double local = 0.0;
+  const double hg = h_ * gravity_.norm();
+  for (int i : active_.owned_points())
+    local += fields_.mass[i] * (Eigen::Map<const Vector<dim>>(velocity_old_.data() + dim * i).norm() + hg);
+  double total = 0.0;
+  MPI_Allreduce(&local, &total, 1, MPI_DOUBLE, MPI_SUM, grid_.comm());
+  return total;
+}
+
+template <int dim>
+void MomentumSystem<dim>::finish(Vec v) {
+  if (!evaluated_at(v)) evaluate_particles(v);
+}
+
+template class MomentumSystem<2>;
+template class MomentumSystem<3>;
+
+}  // namespace talus

@@ -1,0 +1,125 @@
+#include "talus/transfer/transfer.hpp"
+
+#include <algorithm>
+
+namespace talus {
+
+template <int dim>
+void compute_stencils(const Grid<dim>& grid, const Particles<dim>& particles, std::vector<Stencil<dim>>& stencils) {
+  const PetscInt n = particles.local_count();
+  stencils.resize(n);
+  FieldView<PetscReal> x(particles.swarm(), field::position);
+  for (PetscInt p = 0; p < n; ++p) grid.stencil(Eigen::Map<const Vector<dim>>(x.data() + dim * p), stencils[p]);
+}
+
+template <int dim>
+void particles_to_grid(const Grid<dim>& grid, const Particles<dim>& particles,
+                       const std::vector<Stencil<dim>>& stencils, TransferScheme scheme, GridFields<dim>& out) {
+  constexpr int bs = dim + 1;  // (m, m v) per grid point
+  DM da = grid.mass_momentum_dm();
+  Vec local, global;
+  TALUS_PETSC(DMGetLocalVector(da, &local));
+  TALUS_PETSC(DMGetGlobalVector(da, &global));
+  TALUS_PETSC(VecZeroEntries(local));
+  TALUS_PETSC(VecZeroEntries(global));
+  {
+    PetscScalar* g;
+    TALUS_PETSC(VecGetArray(local, &g));
+    DM sw = particles.swarm();
+    FieldView<PetscReal> x(sw, field::position), v(sw, field::velocity), c(sw, field::affine_velocity),
+        m(sw, field::mass);
+    const PetscInt np = particles.local_count();
+    const bool apic = scheme == TransferScheme::apic;
+    for (PetscInt p = 0; p < np; ++p) {
+      const Stencil<dim>& st = stencils[p];
+      const Eigen::Map<const Vector<dim>> xp(x.data() + dim * p), vp(v.data() + dim * p);
+      const Eigen::Map<const Eigen::Matrix<double, dim, dim, Eigen::RowMajor>> cp(c.data() + dim * dim * p);
+      for (int k = 0; k < st.count; ++k) {
+        const double w = m[p] * st.weight[k];
+        PetscScalar* node = g + bs * st.local[k];
+        node[0] += w;
+        Vector<dim> momentum = w * vp;
+        if (apic) momentum += w * (cp * (grid.point_position(st.node[k]) - xp));
+        for (int a = 0; a < dim; ++a) node[1 + a] += momentum[a];
+      }
+    }
+    TALUS_PETSC(VecRestoreArray(local, &g));
+  }
+  TALUS_PETSC(DMLocalToGlobalBegin(da, local, ADD_VALUES, global));
+  TALUS_PETSC(DMLocalToGlobalEnd(da, local, ADD_VALUES, global));
+  TALUS_PETSC(DMGlobalToLocalBegin(da, global, INSERT_VALUES, local));
+  TALUS_PETSC(DMGlobalToLocalEnd(da, global, INSERT_VALUES, local));
+  {
+    const PetscScalar* g;
+    TALUS_PETSC(VecGetArrayRead(local, &g));
+    const int n = grid.ghosted_count();
+    out.mass.assign(n, 0.0);
+    out.velocity.assign(static_cast<std::size_t>(n) * dim, 0.0);
+    for (int i = 0; i < n; ++i) {
+      const double mi = g[bs * i];
+      out.mass[i] = mi;
+      if (mi > 0)
+        for (int a = 0; a < dim; ++a) out.velocity[dim * i + a] = g[bs * i + 1 + a] / mi;
+    }
+    TALUS_PETSC(VecRestoreArrayRead(local, &g));
+  }
+  TALUS_PETSC(DMRestoreGlobalVector(da, &global));
+  TALUS_PETSC(DMRestoreLocalVector(da, &local));
+}
+
+template <int dim>
+void grid_to_particles(const Grid<dim>& grid, Particles<dim>& particles, const std::vector<Stencil<dim>>& stencils,
+                       const std::vector<double>& v_new, const std::vector<double>& v_old, double h, double theta,
+                       const TransferConfig& transfer) {
+  using RowMat = Eigen::Matrix<double, dim, dim, Eigen::RowMajor>;
+  DM sw = particles.swarm();
+  FieldView<PetscReal> x(sw, field::position), v(sw, field::velocity), c(sw, field::affine_velocity),
+      u(sw, field::displacement), F(sw, field::deformation_gradient);
+  const PetscInt np = particles.local_count();
+  const bool apic = transfer.scheme == TransferScheme::apic;
+  const double blend = transfer.flip_blend;
+  for (PetscInt p = 0; p < np; ++p) {
+    const Stencil<dim>& st = stencils[p];
+    Vector<dim> v_end = Vector<dim>::Zero(), v_theta = Vector<dim>::Zero(), dv = Vector<dim>::Zero();
+    Matrix<dim> grad_end = Matrix<dim>::Zero(), grad_theta = Matrix<dim>::Zero();
+    for (int k = 0; k < st.count; ++k) {
+      const Eigen::Map<const Vector<dim>> vn(v_new.data() + dim * st.local[k]), vo(v_old.data() + dim * st.local[k]);
+      const Vector<dim> vt = theta * vn + (1.0 - theta) * vo;
+      v_end += st.weight[k] * vn;
+      v_theta += st.weight[k] * vt;
+      dv += st.weight[k] * (vn - vo);
+      grad_end += vn * st.gradient[k].transpose();
+      grad_theta += vt * st.gradient[k].transpose();
+    }
+    Eigen::Map<Vector<dim>> xp(x.data() + dim * p), vp(v.data() + dim * p), up(u.data() + dim * p);
+    Eigen::Map<RowMat> cp(c.data() + dim * dim * p), Fp(F.data() + dim * dim * p);
+    xp += h * v_theta;
+    up += h * v_theta;
+    // Slip and fixed faces have zero normal velocity on the face itself; a
+    // particle can still overshoot it by a round-off amount: keep it inside.
+    for (int a = 0; a < dim; ++a) xp[a] = std::clamp(xp[a], grid.lower()[a], grid.upper()[a]);
+    if (apic) {
+      vp = v_end;
+      cp = grad_end;
+    } else {
+      vp = blend * (vp + dv) + (1.0 - blend) * v_end;
+    }
+    Fp = (Matrix<dim>::Identity() + h * grad_theta) * Fp;
+  }
+}
+
+template void compute_stencils<2>(const Grid<2>&, const Particles<2>&, std::vector<Stencil<2>>&);
+template void compute_stencils<3>(const Grid<3>&, const Particles<3>&, std::vector<Stencil<3>>&);
+template void particles_to_grid<2>(const Grid<2>&, const Particles<2>&, const std::vector<Stencil<2>>&,
+                                   TransferScheme, GridFields<2>&);
+template void particles_to_grid<3>(const Grid<3>&, const Particles<3>&, const std::vector<Stencil<3>>&,
+                                   TransferScheme, GridFields<3>&);
+template void grid_to_particles<2>(const Grid<2>&, Particles<2>&, const std::vector<Stencil<2>>&,
+                                   const std::vector<double>&, const std::vector<double>&, double, double,
+                                   const TransferConfig&);
+template void grid_to_particles<3>(const Grid<3>&, Particles<3>&, const std::vector<Stencil<3>>&,
+                                   const std::vector<double>&, const std::vector<double>&, double, double,
+                                   const TransferConfig&);
+
+}  // namespace talus
+
