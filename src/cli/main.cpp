@@ -1,6 +1,8 @@
 // talus command line: talus run case.yaml [PETSc options] | talus check case.yaml
 #include <petscsys.h>
 
+#include <sys/resource.h>
+
 #include <cstring>
 #include <iomanip>
 #include <iostream>
@@ -36,6 +38,19 @@ int run_case(const talus::CaseConfig& config, int rank) {
     if (config.output.enabled) std::cout << " (" << config.output.directory << "/particles.pvd)";
     std::cout << "\n";
   }
+  // One machine-readable line for scripts/ (benchmarks): totals over the run,
+  // peak resident memory of the largest rank.
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  double rss_mb = usage.ru_maxrss / 1024.0, max_rss_mb = 0.0;
+  MPI_Reduce(&rss_mb, &max_rss_mb, 1, MPI_DOUBLE, MPI_MAX, 0, PETSC_COMM_WORLD);
+  if (rank == 0)
+    std::cout << std::setprecision(6) << "talus-summary: {\"dim\": " << dim
+              << ", \"particles\": " << sim.particles().global_count() << ", \"steps\": " << s.steps
+              << ", \"cutbacks\": " << s.cutbacks << ", \"newton_iterations\": " << s.newton_iterations
+              << ", \"linear_iterations\": " << s.linear_iterations << ", \"wall_seconds\": " << s.wall_seconds
+              << ", \"transfer_seconds\": " << s.transfer_seconds << ", \"solve_seconds\": " << s.solve_seconds
+              << ", \"peak_rss_mb\": " << max_rss_mb << "}\n";
   return 0;
 }
 

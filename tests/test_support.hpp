@@ -1,0 +1,57 @@
+#pragma once
+// Helpers shared by the tests: cases from inline YAML, particle field access,
+// and gathering particle data across ranks by particle id.
+#include <mpi.h>
+
+#include <algorithm>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "talus/io/config.hpp"
+#include "talus/particles/particles.hpp"
+
+namespace talus::testing {
+
+inline CaseConfig case_from_yaml(const std::string& yaml) { return parse_case(yaml, "<test case>"); }
+
+// All particles' values of a real field, ordered by particle id, on every rank.
+template <int dim>
+std::vector<double> gather_by_id(Particles<dim>& particles, const char* name, int block) {
+  const PetscInt n = particles.local_count();
+  std::vector<double> local;
+  std::vector<long long> ids;
+  {
+    FieldView<PetscReal> f(particles.swarm(), name);
+    FieldView<std::int64_t> id(particles.swarm(), field::particle_id);
+    for (PetscInt p = 0; p < n; ++p) {
+      ids.push_back(id[p]);
+      for (int b = 0; b < block; ++b) local.push_back(f[block * p + b]);
+    }
+  }
+  MPI_Comm comm = PetscObjectComm(reinterpret_cast<PetscObject>(particles.swarm()));
+  int size;
+  MPI_Comm_size(comm, &size);
+  int count = static_cast<int>(n);
+  std::vector<int> counts(size), displs(size, 0);
+  MPI_Allgather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, comm);
+  for (int r = 1; r < size; ++r) displs[r] = displs[r - 1] + counts[r - 1];
+  const int total = displs[size - 1] + counts[size - 1];
+  std::vector<long long> all_ids(total);
+  MPI_Allgatherv(ids.data(), count, MPI_LONG_LONG, all_ids.data(), counts.data(), displs.data(), MPI_LONG_LONG, comm);
+  for (int r = 0; r < size; ++r) counts[r] *= block, displs[r] *= block;
+  std::vector<double> all(static_cast<std::size_t>(total) * block);
+  MPI_Allgatherv(local.data(), count * block, MPI_DOUBLE, all.data(), counts.data(), displs.data(), MPI_DOUBLE, comm);
+  std::vector<double> ordered(all.size());
+  for (int k = 0; k < total; ++k)
+    for (int b = 0; b < block; ++b) ordered[static_cast<std::size_t>(all_ids[k]) * block + b] = all[k * block + b];
+  return ordered;
+}
+
+inline int comm_size(MPI_Comm comm) {
+  int s;
+  MPI_Comm_size(comm, &s);
+  return s;
+}
+
+}  // namespace talus::testing

@@ -1,0 +1,131 @@
+// P2G and G2P conserve total mass and momentum to round-off, in 2D and 3D,
+// for APIC, PIC and FLIP, on one rank and across ranks.
+#include <catch2/catch.hpp>
+#include <cmath>
+
+#include "talus/particles/seeding.hpp"
+#include "talus/transfer/transfer.hpp"
+#include "test_support.hpp"
+
+using namespace talus;
+
+namespace {
+
+// A smooth pseudo-random number from an integer key, identical on every rank.
+double hashed(long key, int salt) { return std::sin(12.9898 * key + 78.233 * salt) * 0.5; }
+
+template <int dim>
+struct Totals {
+  double mass = 0;
+  Vector<dim> momentum = Vector<dim>::Zero();
+};
+
+template <int dim>
+Totals<dim> particle_totals(Particles<dim>& particles) {
+  Totals<dim> t;
+  FieldView<PetscReal> m(particles.swarm(), field::mass), v(particles.swarm(), field::velocity);
+  for (PetscInt p = 0; p < particles.local_count(); ++p) {
+    t.mass += m[p];
+    for (int a = 0; a < dim; ++a) t.momentum[a] += m[p] * v[dim * p + a];
+  }
+  MPI_Comm comm = PetscObjectComm(reinterpret_cast<PetscObject>(particles.swarm()));
+  MPI_Allreduce(MPI_IN_PLACE, &t.mass, 1, MPI_DOUBLE, MPI_SUM, comm);
+  MPI_Allreduce(MPI_IN_PLACE, t.momentum.data(), dim, MPI_DOUBLE, MPI_SUM, comm);
+  return t;
+}
+
+// Sum over owned grid points of m_i and m_i v_i for a ghosted velocity array.
+template <int dim>
+Totals<dim> grid_totals(const Grid<dim>& grid, const std::vector<double>& mass, const std::vector<double>& velocity) {
+  Totals<dim> t;
+  for (int i = 0; i < grid.ghosted_count(); ++i) {
+    if (!grid.is_owned(grid.global_index(i))) continue;
+    t.mass += mass[i];
+    for (int a = 0; a < dim; ++a) t.momentum[a] += mass[i] * velocity[dim * i + a];
+  }
+  MPI_Allreduce(MPI_IN_PLACE, &t.mass, 1, MPI_DOUBLE, MPI_SUM, grid.comm());
+  MPI_Allreduce(MPI_IN_PLACE, t.momentum.data(), dim, MPI_DOUBLE, MPI_SUM, grid.comm());
+  return t;
+}
+
+template <int dim>
+void check_conservation(ShapeKind kind, TransferScheme scheme, double flip_blend) {
+  Vector<dim> lo = Vector<dim>::Zero(), hi;
+  if constexpr (dim == 2) hi << 1.0, 0.8; else hi << 0.6, 0.5, 0.4;
+  Grid<dim> grid(PETSC_COMM_WORLD, lo, hi, 0.1, kind);
+  Particles<dim> particles(grid);
+  BodyConfig bc;
+  bc.box_lower.assign(dim, 0.0);
+  bc.box_upper.assign(hi.data(), hi.data() + dim);
+  bc.particles_per_cell = 2;
+  bc.velocity.assign(dim, 0.0);
+  // Any material will do: seeding only reads the density.
+  struct Dummy : Material {
+    const char* model() const override { return "dummy"; }
+    double density() const override { return 1500.0; }
+    void update(const Voigt&, const Voigt&, const double*, double*, MaterialPointUpdate&) const override {}
+    const Tangent& elastic_stiffness() const override { static Tangent t = Tangent::Identity(); return t; }
+  } dummy;
+  seed_box_body<dim>(particles, grid, bc, dummy, 0, 0);
+  // Random masses, velocities and affine velocities, keyed by particle id.
+  {
+    FieldView<PetscReal> m(particles.swarm(), field::mass), v(particles.swarm(), field::velocity),
+        c(particles.swarm(), field::affine_velocity), x(particles.swarm(), field::position);
+    FieldView<std::int64_t> id(particles.swarm(), field::particle_id);
+    for (PetscInt p = 0; p < particles.local_count(); ++p) {
+      const long k = static_cast<long>(id[p]);
+      m[p] *= 1.0 + hashed(k, 1);
+      for (int a = 0; a < dim; ++a) {
+        v[dim * p + a] = hashed(k, 2 + a);
+        x[dim * p + a] += 0.02 * hashed(k, 9 + a);  // off the regular lattice
+      }
+      for (int a = 0; a < dim * dim; ++a) c[dim * dim * p + a] = 10.0 * hashed(k, 20 + a);
+    }
+  }
+  particles.migrate();
+  std::vector<Stencil<dim>> stencils;
+  compute_stencils(grid, particles, stencils);
+  GridFields<dim> fields;
+  particles_to_grid(grid, particles, stencils, scheme, fields);
+
+  const Totals<dim> before = particle_totals(particles);
+  const Totals<dim> on_grid = grid_totals(grid, fields.mass, fields.velocity);
+  // Sums of ~1e3 terms of O(1): relative round-off ~1e-14; 1e-12 leaves a margin.
+  CHECK(on_grid.mass == Approx(before.mass).epsilon(1e-12));
+  CHECK((on_grid.momentum - before.momentum).norm() <= 1e-12 * before.mass);
+
+  // G2P with a new grid velocity field (consistent on ghosts: keyed by global index).
+  std::vector<double> v_new(fields.velocity.size());
+  for (int i = 0; i < grid.ghosted_count(); ++i) {
+    const auto ijk = grid.global_index(i);
+    long key = 0;
+    for (int a = dim - 1; a >= 0; --a) key = key * 1000 + ijk[a];
+    for (int a = 0; a < dim; ++a) v_new[dim * i + a] = fields.mass[i] > 0 ? hashed(key, 40 + a) : 0.0;
+  }
+  TransferConfig transfer;
+  transfer.scheme = scheme;
+  transfer.flip_blend = flip_blend;
+  grid_to_particles(grid, particles, stencils, v_new, fields.velocity, 1e-3, 1.0, transfer);
+  const Totals<dim> after = particle_totals(particles);
+  const Totals<dim> new_grid = grid_totals(grid, fields.mass, v_new);
+  // PIC/APIC: sum_p m_p v_p = sum_i m_i v_i^{n+1}. FLIP adds sum_i m_i (v^{n+1} - v^n)
+  // to the old particle momentum, which equals the old grid momentum: same total.
+  CHECK((after.momentum - new_grid.momentum).norm() <= 1e-12 * before.mass);
+  CHECK(after.mass == Approx(before.mass).epsilon(1e-14));
+}
+
+}  // namespace
+
+TEST_CASE("P2G/G2P conserve mass and momentum, quadratic B-splines", "[transfer][mpi]") {
+  check_conservation<2>(ShapeKind::quadratic_bspline, TransferScheme::apic, 0.0);
+  check_conservation<2>(ShapeKind::quadratic_bspline, TransferScheme::flip, 0.0);
+  check_conservation<2>(ShapeKind::quadratic_bspline, TransferScheme::flip, 0.95);
+  check_conservation<3>(ShapeKind::quadratic_bspline, TransferScheme::apic, 0.0);
+  check_conservation<3>(ShapeKind::quadratic_bspline, TransferScheme::flip, 0.95);
+}
+
+TEST_CASE("P2G/G2P conserve mass and momentum, linear hats", "[transfer][mpi]") {
+  check_conservation<2>(ShapeKind::linear, TransferScheme::apic, 0.0);
+  check_conservation<2>(ShapeKind::linear, TransferScheme::flip, 0.95);
+  check_conservation<3>(ShapeKind::linear, TransferScheme::apic, 0.0);
+}
