@@ -22,7 +22,7 @@ void set_if_absent(const char* name, const char* value) {
 
 }  // namespace
 
-void set_default_solver_options() {
+void set_default_solver_options(MPI_Comm comm) {
   set_if_absent("-talus_snes_type", "newtonls");
   set_if_absent("-talus_snes_linesearch_type", "basic");
   set_if_absent("-talus_snes_rtol", "1e-10");
@@ -30,18 +30,19 @@ void set_default_solver_options() {
   set_if_absent("-talus_snes_max_it", "25");
   set_if_absent("-talus_ksp_type", "preonly");
   set_if_absent("-talus_pc_type", "lu");
-  set_if_absent("-talus_pc_factor_mat_solver_type", "mumps");
+  // PETSc's own LU is the fastest for small serial systems; MUMPS factors in parallel.
+  int size = 1;
+  MPI_Comm_size(comm, &size);
+  set_if_absent("-talus_pc_factor_mat_solver_type", size > 1 ? "mumps" : "petsc");
 }
 
 template <int dim>
 NewtonSolver<dim>::NewtonSolver(MPI_Comm comm) {
-  set_default_solver_options();
+  set_default_solver_options(comm);
   PetscBool set = PETSC_FALSE;
   TALUS_PETSC(PetscOptionsHasName(nullptr, nullptr, "-talus_snes_atol", &set));
   user_atol_ = set;
-  TALUS_PETSC(SNESCreate(comm, &snes_));
-  TALUS_PETSC(SNESSetOptionsPrefix(snes_, "talus_"));
-  TALUS_PETSC(SNESSetFromOptions(snes_));
+  comm_ = comm;
 }
 
 template <int dim>
@@ -56,8 +57,12 @@ NewtonReport NewtonSolver<dim>::solve(MomentumSystem<dim>& system) {
   Vec F;
   TALUS_PETSC(VecDuplicate(v, &F));
   Mat J = system.create_matrix();
-  // The unknowns change every step: drop the previous step's work vectors and factors.
-  TALUS_PETSC(SNESReset(snes_));
+  // The unknowns change every step, so each step gets a fresh SNES (SNESReset
+  // leaves stale sizes inside some preconditioners, e.g. GAMG's coarse solver).
+  TALUS_PETSC(SNESDestroy(&snes_));
+  TALUS_PETSC(SNESCreate(comm_, &snes_));
+  TALUS_PETSC(SNESSetOptionsPrefix(snes_, "talus_"));
+  TALUS_PETSC(SNESSetFromOptions(snes_));
   TALUS_PETSC(SNESSetFunction(snes_, F, form_residual<dim>, &system));
   TALUS_PETSC(SNESSetJacobian(snes_, J, J, form_jacobian<dim>, &system));
   if (!user_atol_) {

@@ -29,13 +29,14 @@ class NewtonSolver {
   SNES snes() const { return snes_; }
 
  private:
+  MPI_Comm comm_;
   SNES snes_ = nullptr;
   bool user_atol_ = false;
 };
 
-// The default solver options (direct LU by MUMPS, full Newton steps, relative
-// tolerance 1e-10), set only where neither the command line nor the case file
-// chose a value.
-void set_default_solver_options();
+// The default solver options (direct LU: PETSc's on one rank, MUMPS on
+// several; full Newton steps; relative tolerance 1e-10), set only where
+// neither the command line nor the case file chose a value.
+void set_default_solver_options(MPI_Comm comm);
 
 }  // namespace talus
