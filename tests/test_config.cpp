@@ -1,0 +1,96 @@
+// Case-file validation: each malformed case stops with an InputError whose
+// message names the file line, the key path and (where there is one) the value.
+#include <catch2/catch.hpp>
+
+#include "talus/io/config.hpp"
+#include "test_support.hpp"
+
+using namespace talus;
+
+namespace {
+
+const std::string valid =
+    "grid:\n"                                                       // 1
+    "  lower: [0, 0]\n"                                              // 2
+    "  upper: [2, 1]\n"                                              // 3
+    "  cell_size: 0.1\n"                                             // 4
+    "time: {end: 1.0, step: 0.01}\n"                                 // 5
+    "gravity: [0, -9.81]\n"                                          // 6
+    "materials:\n"                                                   // 7
+    "  - name: soil\n"                                               // 8
+    "    model: linear_elastic\n"                                    // 9
+    "    density: 2000\n"                                            // 10
+    "    youngs_modulus: 1.0e7\n"                                    // 11
+    "    poisson_ratio: 0.3\n"                                       // 12
+    "bodies:\n"                                                      // 13
+    "  - name: block\n"                                              // 14
+    "    material: soil\n"                                           // 15
+    "    box: {lower: [0.5, 0], upper: [1.0, 0.5]}\n"                // 16
+    "boundaries: {y_min: fixed}\n";                                  // 17
+
+std::string replace(std::string s, const std::string& from, const std::string& to) {
+  const auto at = s.find(from);
+  REQUIRE(at != std::string::npos);
+  return s.replace(at, from.size(), to);
+}
+
+// The message of the InputError thrown by parsing `yaml`.
+std::string error_of(const std::string& yaml) {
+  try {
+    parse_case(yaml, "case.yaml");
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  FAIL("no InputError for:\n" << yaml);
+  return "";
+}
+
+}  // namespace
+
+TEST_CASE("a valid case parses into the expected values", "[config]") {
+  const CaseConfig c = parse_case(valid, "case.yaml");
+  CHECK(c.dim == 2);
+  CHECK(c.grid.cell_size == 0.1);
+  CHECK(c.grid.shape == ShapeKind::quadratic_bspline);
+  CHECK(c.time.theta == 1.0);
+  CHECK(c.materials.size() == 1);
+  CHECK(c.materials[0].law->density() == 2000.0);
+  CHECK(c.bodies[0].particles_per_cell == 2);
+  CHECK(c.faces[2] == FaceCondition::fixed);
+  CHECK(c.faces[0] == FaceCondition::slip);  // default
+}
+
+TEST_CASE("malformed cases name the key, the value and the line", "[config]") {
+  struct Case {
+    std::string yaml, expected;
+  };
+  const std::vector<Case> cases = {
+      {replace(valid, "poisson_ratio: 0.3", "poisson_ratio: 0.5"), "case.yaml:12: materials[0].poisson_ratio = 0.5"},
+      {replace(valid, "density: 2000", "density: -2000"), "case.yaml:10: materials[0].density"},
+      {replace(valid, "youngs_modulus: 1.0e7", "youngs_modulus: 0"), "materials[0].youngs_modulus"},
+      {replace(valid, "cell_size: 0.1", "cell_size: 0.3"), "case.yaml:4: grid.cell_size"},
+      {replace(valid, "step: 0.01", "step: -0.01"), "time.step"},
+      {replace(valid, "poisson_ratio: 0.3", "poisson_ratio: abc"), "materials[0].poisson_ratio = abc"},
+      {replace(valid, "    density: 2000\n", "    densty: 2000\n    density: 2000\n"),
+       "case.yaml:10: materials[0].densty: unknown key (did you mean 'density'?)"},
+      {replace(valid, "gravity", "gravty"), "case.yaml:6: gravty: unknown key (did you mean 'gravity'?)"},
+      {replace(valid, "material: soil", "material: rock"), "case.yaml:15: bodies[0].material = rock"},
+      {replace(valid, "upper: [1.0, 0.5]", "upper: [2.5, 0.5]"), "bodies[0].box"},
+      {replace(valid, "    model: linear_elastic\n", ""), "materials[0].model: is required"},
+      {replace(valid, "model: linear_elastic", "model: elastoplastic"), "materials[0].model = elastoplastic"},
+      {replace(valid, "y_min: fixed", "y_min: glued"), "boundaries.y_min = glued: must be one of: free, slip, fixed"},
+      {replace(valid, "upper: [2, 1]", "upper: [2, 1, 1]"), "grid.upper"},
+      {replace(valid, "time: {end: 1.0, step: 0.01}", "time: {end: 1.0, step: 0.01, theta: 0.3}"), "time.theta = 0.3"},
+      {"grid: [1, 2\n", "case.yaml:2: YAML syntax error"},
+      {"", "the case file must be a YAML map"},
+  };
+  for (const Case& c : cases) {
+    const std::string message = error_of(c.yaml);
+    INFO("message: " << message);
+    CHECK(message.find(c.expected) != std::string::npos);
+  }
+}
+
+TEST_CASE("a missing case file is an input error", "[config]") {
+  CHECK_THROWS_AS(load_case("/nonexistent/case.yaml"), InputError);
+}
