@@ -148,32 +148,74 @@ template <int dim>
 void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
   if (!evaluated_at(v)) evaluate_particles(v);
   TALUS_PETSC(MatZeroEntries(J));
-  constexpr int max_rows = Stencil<dim>::max_nodes * dim;
-  std::vector<double> element(max_rows * max_rows);
-  std::array<PetscInt, Stencil<dim>::max_nodes> rows;
+  // Particle contributions are first summed per (point, neighbour) block on
+  // this rank, then handed to PETSc one block row at a time: a point is shared
+  // by many particles, so this cuts the matrix insertions by that factor.
+  const int reach = grid_.shape() == ShapeKind::linear ? 1 : 2, width = 2 * reach + 1;
+  int neighbours = 1;
+  for (int a = 0; a < dim; ++a) neighbours *= width;
+  const int row_length = neighbours * dim;  // values in one scalar row of a block row
+  std::vector<int> slot(grid_.ghosted_count(), -1);
+  std::vector<int> slot_point;
+  for (const Stencil<dim>& st : stencils_)
+    for (int k = 0; k < st.count; ++k)
+      if (slot[st.local[k]] < 0 && active_.compact_index(st.local[k]) >= 0) {
+        slot[st.local[k]] = static_cast<int>(slot_point.size());
+        slot_point.push_back(st.local[k]);
+      }
+  std::vector<double> rows(slot_point.size() * dim * row_length, 0.0);
+
   const double scale = h_ * theta_ * theta_;
   for (std::size_t p = 0; p < stencils_.size(); ++p) {
     const Stencil<dim>& st = stencils_[p];
-    const int ns = st.count, nr = ns * dim;
     const StressTangent& A = tangent_[p];
-    for (int b = 0; b < ns; ++b) {
-      rows[b] = active_.compact_index(st.local[b]);
-      // G(ij, k) = sum_l A(ij, kl) dN_b/dx_l
+    for (int b = 0; b < st.count; ++b) {
+      if (active_.compact_index(st.local[b]) < 0) continue;
+      // G(ij, k) = V_p h theta^2 sum_l A(ij, kl) dN_b/dx_l
       Eigen::Matrix<double, nL, dim> G;
       for (int k = 0; k < dim; ++k) {
         G.col(k).setZero();
         for (int l = 0; l < dim; ++l) G.col(k) += A.col(k * dim + l) * st.gradient[b][l];
       }
-      for (int a = 0; a < ns; ++a)
+      G *= scale * volume_[p];
+      for (int a = 0; a < st.count; ++a) {
+        const int sa = slot[st.local[a]];
+        if (sa < 0) continue;
+        int offset = 0;
+        for (int ax = dim - 1; ax >= 0; --ax) offset = offset * width + (st.node[b][ax] - st.node[a][ax] + reach);
+        double* row = rows.data() + static_cast<std::size_t>(sa) * dim * row_length + offset * dim;
         for (int i = 0; i < dim; ++i)
           for (int k = 0; k < dim; ++k) {
             double value = 0.0;
             for (int j = 0; j < dim; ++j) value += st.gradient[a][j] * G(i * dim + j, k);
-            const bool cut = active_.constrained(st.local[a], i) || active_.constrained(st.local[b], k);
-            element[(a * dim + i) * nr + b * dim + k] = cut ? 0.0 : scale * volume_[p] * value;
+            row[i * row_length + k] += value;
           }
+      }
     }
-    TALUS_PETSC(MatSetValuesBlocked(J, ns, rows.data(), ns, rows.data(), element.data(), ADD_VALUES));
+  }
+
+  std::vector<PetscInt> cols(neighbours);
+  for (std::size_t sa = 0; sa < slot_point.size(); ++sa) {
+    const int point = slot_point[sa];
+    const auto ijk = grid_.global_index(point);
+    double* row = rows.data() + sa * dim * row_length;
+    for (int n = 0; n < neighbours; ++n) {
+      std::array<int, dim> jk;
+      bool inside = true;
+      for (int ax = 0, r = n; ax < dim; ++ax, r /= width) {
+        jk[ax] = ijk[ax] + r % width - reach;
+        inside &= jk[ax] >= grid_.ghost_start()[ax] && jk[ax] < grid_.ghost_start()[ax] + grid_.ghost_size()[ax];
+      }
+      const int neighbour = inside ? grid_.local_index(jk) : -1;
+      cols[n] = inside ? active_.compact_index(neighbour) : -1;
+      // Constrained components: zero rows and columns (their equation is m_i v_i = 0).
+      for (int i = 0; i < dim; ++i)
+        for (int k = 0; k < dim; ++k)
+          if (active_.constrained(point, i) || (neighbour >= 0 && active_.constrained(neighbour, k)))
+            row[i * row_length + n * dim + k] = 0.0;
+    }
+    const PetscInt r = active_.compact_index(point);
+    TALUS_PETSC(MatSetValuesBlocked(J, 1, &r, neighbours, cols.data(), row, ADD_VALUES));
   }
   PetscInt first;
   TALUS_PETSC(VecGetOwnershipRange(v, &first, nullptr));

@@ -1,0 +1,51 @@
+// Solver choices reach PETSc under the talus_ prefix: from the case file's
+// solver.petsc_options, with the command line (the options database) winning.
+#include <catch2/catch.hpp>
+
+#include "talus/simulation.hpp"
+#include "test_support.hpp"
+
+using namespace talus;
+
+namespace {
+
+const std::string base =
+    "grid: {lower: [0, 0], upper: [1, 1], cell_size: 0.1}\n"
+    "time: {end: 0.01, step: 0.01}\noutput: {enabled: false}\ngravity: [0, -9.81]\n"
+    "materials: [{name: m, model: linear_elastic, density: 2000, youngs_modulus: 1.0e6, poisson_ratio: 0.3}]\n"
+    "bodies: [{name: b, material: m, box: {lower: [0.2, 0], upper: [0.8, 0.6]}}]\n"
+    "boundaries: {y_min: fixed}\n";
+
+StepReport one_step(const std::string& yaml) {
+  Simulation<2> sim(testing::case_from_yaml(yaml), PETSC_COMM_SELF);
+  return sim.advance(0.01);
+}
+
+void clear(const char* name) { TALUS_PETSC(PetscOptionsClearValue(nullptr, name)); }
+
+}  // namespace
+
+TEST_CASE("case-file PETSc options select the solver; the command line wins", "[solver]") {
+  // Default: direct LU, one linear iteration per Newton iteration.
+  const StepReport direct = one_step(base);
+  REQUIRE(direct.converged);
+  CHECK(direct.newton.linear_iterations == direct.newton.iterations);
+
+  // Case file asks for CG + Jacobi: many Krylov iterations for one Newton step.
+  const std::string krylov = base + "solver: {petsc_options: {ksp_type: cg, pc_type: jacobi, ksp_rtol: 1e-12}}\n";
+  clear("-talus_ksp_type");
+  clear("-talus_pc_type");
+  const StepReport cg = one_step(krylov);
+  REQUIRE(cg.converged);
+  CHECK(cg.newton.linear_iterations > 5 * cg.newton.iterations);
+
+  // An option already in the database (as from the command line) is not overridden.
+  clear("-talus_ksp_type");
+  clear("-talus_pc_type");
+  TALUS_PETSC(PetscOptionsSetValue(nullptr, "-talus_ksp_type", "preonly"));
+  TALUS_PETSC(PetscOptionsSetValue(nullptr, "-talus_pc_type", "lu"));
+  const StepReport overridden = one_step(krylov);
+  REQUIRE(overridden.converged);
+  CHECK(overridden.newton.linear_iterations == overridden.newton.iterations);
+  clear("-talus_ksp_rtol");
+}
