@@ -49,3 +49,20 @@ TEST_CASE("case-file PETSc options select the solver; the command line wins", "[
   CHECK(overridden.newton.linear_iterations == overridden.newton.iterations);
   clear("-talus_ksp_rtol");
 }
+
+TEST_CASE("a failed Newton solve leaves the particles untouched and the run stops after cut-backs", "[solver]") {
+  // Zero Newton iterations allowed: every step with a non-zero initial residual fails.
+  TALUS_PETSC(PetscOptionsSetValue(nullptr, "-talus_snes_max_it", "0"));
+  std::string yaml = base;
+  yaml.replace(yaml.find("time: {end: 0.01, step: 0.01}"), 29, "time: {end: 0.01, step: 0.01, min_step_ratio: 0.1}");
+  CaseConfig config = testing::case_from_yaml(yaml);
+  Simulation<2> sim(config, PETSC_COMM_SELF);
+  const auto before = testing::gather_by_id(sim.particles(), field::position, 2);
+  const StepReport r = sim.advance(0.01);
+  CHECK_FALSE(r.converged);
+  CHECK(sim.time() == 0.0);
+  CHECK(testing::gather_by_id(sim.particles(), field::position, 2) == before);
+  // h = 0.01, 0.005, ..., 0.000625 < 0.1 * 0.01: the run gives up with a clear error.
+  CHECK_THROWS_AS(sim.run(nullptr), SimulationError);
+  clear("-talus_snes_max_it");
+}
