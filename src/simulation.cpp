@@ -96,7 +96,7 @@ StepReport Simulation<dim>::advance(double h) {
 
   // 6. G2P: velocities, affine velocities, positions, deformation gradients.
   const auto t2 = std::chrono::steady_clock::now();
-  grid_to_particles(*grid_, *particles_, stencils, system.end_velocity(), system.start_velocity(), h,
+  grid_to_particles(*particles_, stencils, system.end_velocity(), system.start_velocity(), h,
                     config_.time.theta, config_.transfer);
   // 7. Commit the material state: sigma^{n+1} at the converged velocities.
   {
@@ -105,6 +105,7 @@ StepReport Simulation<dim>::advance(double h) {
     for (std::size_t p = 0; p < end.size(); ++p) Eigen::Map<Voigt>(s.data() + 6 * p) = end[p];
   }
   check_finite();
+  keep_particles_inside();
   particles_->migrate();
   report.transfer_seconds += seconds_since(t2);
   time_ += h;
@@ -129,6 +130,36 @@ void Simulation<dim>::check_finite() const {
   if (any)
     throw SimulationError("a particle position, velocity or stress is not finite after the step ending at t = " +
                           std::to_string(time_) + "; the run stops (the last output is the last good state)");
+}
+
+template <int dim>
+void Simulation<dim>::keep_particles_inside() {
+  // Slip and fixed faces have zero normal velocity on the face itself, but
+  // the time integration can carry a particle past it by a small amount: put
+  // it back just inside (the DMDA locates points strictly inside its box). A
+  // particle beyond a free face has left the computational domain: stop.
+  const double margin = 1e-9 * grid_->cell_size();
+  long escaped = 0;
+  {
+    FieldView<PetscReal> x(particles_->swarm(), field::position);
+    for (PetscInt p = 0; p < particles_->local_count(); ++p)
+      for (int a = 0; a < dim; ++a) {
+        double& xa = x[dim * p + a];
+        const double lo = grid_->lower()[a] + margin, hi = grid_->upper()[a] - margin;
+        if (xa < lo) {
+          if (config_.faces[2 * a] == FaceCondition::free && xa < grid_->lower()[a]) ++escaped;
+          xa = lo;
+        } else if (xa > hi) {
+          if (config_.faces[2 * a + 1] == FaceCondition::free && xa > grid_->upper()[a]) ++escaped;
+          xa = hi;
+        }
+      }
+  }
+  long total = 0;
+  MPI_Allreduce(&escaped, &total, 1, MPI_LONG, MPI_SUM, comm_);
+  if (total > 0)
+    throw SimulationError(std::to_string(total) + " particles left the grid through a free face at t = " +
+                          std::to_string(time_) + "; enlarge the grid box or make that face slip or fixed");
 }
 
 template <int dim>

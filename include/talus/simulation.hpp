@@ -46,6 +46,7 @@ class Simulation {
 
  private:
   void check_finite() const;
+  void keep_particles_inside();
 
   CaseConfig config_;
   MPI_Comm comm_;

@@ -1,7 +1,5 @@
 #include "talus/transfer/transfer.hpp"
 
-#include <algorithm>
-
 namespace talus {
 
 template <int dim>
@@ -68,7 +66,7 @@ void particles_to_grid(const Grid<dim>& grid, const Particles<dim>& particles,
 }
 
 template <int dim>
-void grid_to_particles(const Grid<dim>& grid, Particles<dim>& particles, const std::vector<Stencil<dim>>& stencils,
+void grid_to_particles(Particles<dim>& particles, const std::vector<Stencil<dim>>& stencils,
                        const std::vector<double>& v_new, const std::vector<double>& v_old, double h, double theta,
                        const TransferConfig& transfer) {
   using RowMat = Eigen::Matrix<double, dim, dim, Eigen::RowMajor>;
@@ -95,9 +93,6 @@ void grid_to_particles(const Grid<dim>& grid, Particles<dim>& particles, const s
     Eigen::Map<RowMat> cp(c.data() + dim * dim * p), Fp(F.data() + dim * dim * p);
     xp += h * v_theta;
     up += h * v_theta;
-    // Slip and fixed faces have zero normal velocity on the face itself; a
-    // particle can still overshoot it by a round-off amount: keep it inside.
-    for (int a = 0; a < dim; ++a) xp[a] = std::clamp(xp[a], grid.lower()[a], grid.upper()[a]);
     if (apic) {
       vp = v_end;
       cp = grad_end;
@@ -114,10 +109,10 @@ template void particles_to_grid<2>(const Grid<2>&, const Particles<2>&, const st
                                    TransferScheme, GridFields<2>&);
 template void particles_to_grid<3>(const Grid<3>&, const Particles<3>&, const std::vector<Stencil<3>>&,
                                    TransferScheme, GridFields<3>&);
-template void grid_to_particles<2>(const Grid<2>&, Particles<2>&, const std::vector<Stencil<2>>&,
+template void grid_to_particles<2>(Particles<2>&, const std::vector<Stencil<2>>&,
                                    const std::vector<double>&, const std::vector<double>&, double, double,
                                    const TransferConfig&);
-template void grid_to_particles<3>(const Grid<3>&, Particles<3>&, const std::vector<Stencil<3>>&,
+template void grid_to_particles<3>(Particles<3>&, const std::vector<Stencil<3>>&,
                                    const std::vector<double>&, const std::vector<double>&, double, double,
                                    const TransferConfig&);
 

@@ -34,8 +34,9 @@ void particles_to_grid(const Grid<dim>& grid, const Particles<dim>& particles,
 // deformation gradient advance with v_theta = theta v^{n+1} + (1-theta) v^n
 // (Moreau-Jean q_{k+1} = q_k + h v_{k+theta}); particle velocities take
 // v^{n+1} by APIC (v_p, C_p = sum v_i grad N_i^T) or the FLIP/PIC blend.
+// Positions are not clamped here (Simulation keeps particles inside the box).
 template <int dim>
-void grid_to_particles(const Grid<dim>& grid, Particles<dim>& particles, const std::vector<Stencil<dim>>& stencils,
+void grid_to_particles(Particles<dim>& particles, const std::vector<Stencil<dim>>& stencils,
                        const std::vector<double>& v_new, const std::vector<double>& v_old, double h, double theta,
                        const TransferConfig& transfer);
 
