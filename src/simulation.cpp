@@ -96,7 +96,7 @@ StepReport Simulation<dim>::advance(double h) {
 
   // 6. G2P: velocities, affine velocities, positions, deformation gradients.
   const auto t2 = std::chrono::steady_clock::now();
-  grid_to_particles(*particles_, stencils, system.end_velocity(), system.start_velocity(), h,
+  grid_to_particles(*particles_, stencils, system.end_velocity(), system.start_velocity(), fields.velocity, h,
                     config_.time.theta, config_.transfer);
   // 7. Commit the material state: sigma^{n+1} at the converged velocities.
   {

@@ -61,3 +61,18 @@ assert v.shape == (n, 3) and np.all(v[:, 2] == 0.0)
 assert v[:, 1].mean() < 0.0      # the column starts to settle downwards
 print("cli ok:", n, "particles,", len(entries), "outputs")
 PY
+
+# The same run on two ranks: one .vtu piece per rank, same particles in total.
+sed -e "s#directory: .*#directory: $work/out2#" run.yaml > run2.yaml
+mpiexec -n 2 "$talus" run run2.yaml > run2.log
+/usr/bin/python3 - "$work/out2" <<'PY'
+import sys, glob
+import vtk
+out = sys.argv[1]
+assert len(glob.glob(out + "/particles_000001_*.vtu")) == 2, glob.glob(out + "/*")
+r = vtk.vtkXMLPUnstructuredGridReader()
+r.SetFileName(out + "/particles_000001.pvtu")
+r.Update()
+assert r.GetOutput().GetNumberOfPoints() == 800, r.GetOutput().GetNumberOfPoints()
+print("cli ok on 2 ranks")
+PY

@@ -105,7 +105,7 @@ void check_conservation(ShapeKind kind, TransferScheme scheme, double flip_blend
   TransferConfig transfer;
   transfer.scheme = scheme;
   transfer.flip_blend = flip_blend;
-  grid_to_particles(particles, stencils, v_new, fields.velocity, 1e-3, 1.0, transfer);
+  grid_to_particles(particles, stencils, v_new, fields.velocity, fields.velocity, 1e-3, 1.0, transfer);
   const Totals<dim> after = particle_totals(particles);
   const Totals<dim> new_grid = grid_totals(grid, fields.mass, v_new);
   // PIC/APIC: sum_p m_p v_p = sum_i m_i v_i^{n+1}. FLIP adds sum_i m_i (v^{n+1} - v^n)

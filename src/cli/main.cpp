@@ -26,8 +26,9 @@ const char* usage =
 template <int dim>
 int run_case(const talus::CaseConfig& config, int rank) {
   talus::Simulation<dim> sim(config, PETSC_COMM_WORLD);
+  const PetscInt particles = sim.particles().global_count();  // collective: every rank asks
   if (rank == 0)
-    std::cout << "talus: " << dim << "D case " << config.source_file << ", " << sim.particles().global_count()
+    std::cout << "talus: " << dim << "D case " << config.source_file << ", " << particles
               << " particles, grid " << sim.grid().cells()[0] << " x " << sim.grid().cells()[1]
               << (dim == 3 ? " x " + std::to_string(sim.grid().cells()[dim - 1]) : std::string()) << " cells\n";
   const talus::RunSummary s = sim.run(&std::cout);
@@ -46,7 +47,7 @@ int run_case(const talus::CaseConfig& config, int rank) {
   MPI_Reduce(&rss_mb, &max_rss_mb, 1, MPI_DOUBLE, MPI_MAX, 0, PETSC_COMM_WORLD);
   if (rank == 0)
     std::cout << std::setprecision(6) << "talus-summary: {\"dim\": " << dim
-              << ", \"particles\": " << sim.particles().global_count() << ", \"steps\": " << s.steps
+              << ", \"particles\": " << particles << ", \"steps\": " << s.steps
               << ", \"cutbacks\": " << s.cutbacks << ", \"newton_iterations\": " << s.newton_iterations
               << ", \"linear_iterations\": " << s.linear_iterations << ", \"wall_seconds\": " << s.wall_seconds
               << ", \"transfer_seconds\": " << s.transfer_seconds << ", \"solve_seconds\": " << s.solve_seconds

@@ -71,7 +71,15 @@ YAML::Node YamlSection::child(const std::string& key, const char* expected) {
   read_.insert(key);
   if (!node_.IsMap()) fail(key, "the enclosing section must be a map");
   YAML::Node c = node_[key];
-  if (!c.IsDefined() || c.IsNull()) fail(key, std::string("is required (") + expected + ")");
+  if (!c.IsDefined() || c.IsNull()) {
+    // A required key that is absent is often a misspelled one that is present.
+    for (auto it = node_.begin(); it != node_.end(); ++it) {
+      const std::string other = it->first.Scalar();
+      if (other != key && edit_distance(other, key) <= 2 && !read_.count(other))
+        fail(other, "unknown key (did you mean '" + key + "'?)");
+    }
+    fail(key, std::string("is required (") + expected + ")");
+  }
   return c;
 }
 
@@ -273,8 +281,8 @@ CaseConfig parse_root(YamlSection& root) {
     bc.box_upper = box.reals("upper", c.dim);
     for (int a = 0; a < c.dim; ++a) {
       if (!(bc.box_upper[a] > bc.box_lower[a])) box.fail("upper", "must be above lower on every axis");
-      if (bc.box_lower[a] < c.grid.lower[a] || bc.box_upper[a] > c.grid.upper[a])
-        box.fail("lower", "the body's box lies (partly) outside the grid box");
+      if (bc.box_lower[a] < c.grid.lower[a]) box.fail("lower", "lies outside the grid box (below grid.lower)");
+      if (bc.box_upper[a] > c.grid.upper[a]) box.fail("upper", "lies outside the grid box (above grid.upper)");
     }
     box.finish();
     bc.particles_per_cell = b.integer("particles_per_cell", 2);
@@ -307,8 +315,6 @@ CaseConfig parse_root(YamlSection& root) {
     c.solver.active_mass_ratio = s.real("active_mass_ratio", 1e-12);
     if (!(c.solver.active_mass_ratio >= 0 && c.solver.active_mass_ratio < 1))
       s.fail_value("active_mass_ratio", std::to_string(c.solver.active_mass_ratio), "must be in [0, 1)");
-    c.solver.max_cutbacks = s.integer("max_cutbacks", 10);
-    if (c.solver.max_cutbacks < 0) s.fail_value("max_cutbacks", std::to_string(c.solver.max_cutbacks), "must be >= 0");
     for (auto& [k, v] : s.free_map("petsc_options")) {
       std::string key = k;
       if (!key.empty() && key[0] == '-') key.erase(0, 1);

@@ -14,40 +14,37 @@ PetscErrorCode form_jacobian(SNES, Vec v, Mat J, Mat, void* ctx) {
   return petsc_callback([&] { static_cast<MomentumSystem<dim>*>(ctx)->jacobian(v, J); });
 }
 
-void set_if_absent(const char* name, const char* value) {
-  PetscBool set = PETSC_FALSE;
-  TALUS_PETSC(PetscOptionsHasName(nullptr, nullptr, name, &set));
-  if (!set) TALUS_PETSC(PetscOptionsSetValue(nullptr, name, value));
-}
-
 }  // namespace
 
-void set_default_solver_options(MPI_Comm comm) {
-  set_if_absent("-talus_snes_type", "newtonls");
-  set_if_absent("-talus_snes_linesearch_type", "basic");
-  set_if_absent("-talus_snes_rtol", "1e-10");
-  set_if_absent("-talus_snes_stol", "0");
-  set_if_absent("-talus_snes_max_it", "25");
-  set_if_absent("-talus_ksp_type", "preonly");
-  set_if_absent("-talus_pc_type", "lu");
-  // PETSc's own LU is the fastest for small serial systems; MUMPS factors in parallel.
-  int size = 1;
-  MPI_Comm_size(comm, &size);
-  set_if_absent("-talus_pc_factor_mat_solver_type", size > 1 ? "mumps" : "petsc");
-}
-
 template <int dim>
-NewtonSolver<dim>::NewtonSolver(MPI_Comm comm) {
-  set_default_solver_options(comm);
-  PetscBool set = PETSC_FALSE;
-  TALUS_PETSC(PetscOptionsHasName(nullptr, nullptr, "-talus_snes_atol", &set));
-  user_atol_ = set;
-  comm_ = comm;
-}
+NewtonSolver<dim>::NewtonSolver(MPI_Comm comm) : comm_(comm) {}
 
 template <int dim>
 NewtonSolver<dim>::~NewtonSolver() {
   SNESDestroy(&snes_);
+}
+
+template <int dim>
+void NewtonSolver<dim>::configure(double absolute_tolerance) {
+  // Defaults are set on the objects, then SNESSetFromOptions lets the options
+  // database (command line, case file) override any of them.
+  TALUS_PETSC(SNESSetOptionsPrefix(snes_, "talus_"));
+  TALUS_PETSC(SNESSetType(snes_, SNESNEWTONLS));
+  SNESLineSearch line_search;
+  TALUS_PETSC(SNESGetLineSearch(snes_, &line_search));
+  TALUS_PETSC(SNESLineSearchSetType(line_search, SNESLINESEARCHBASIC));
+  TALUS_PETSC(SNESSetTolerances(snes_, absolute_tolerance, 1e-10, 0.0, 25, PETSC_DEFAULT));
+  KSP ksp;
+  PC pc;
+  TALUS_PETSC(SNESGetKSP(snes_, &ksp));
+  TALUS_PETSC(KSPSetType(ksp, KSPPREONLY));
+  TALUS_PETSC(KSPGetPC(ksp, &pc));
+  TALUS_PETSC(PCSetType(pc, PCLU));
+  // PETSc's own LU is the fastest for small serial systems; MUMPS factors in parallel.
+  int size = 1;
+  MPI_Comm_size(comm_, &size);
+  TALUS_PETSC(PCFactorSetMatSolverType(pc, size > 1 ? MATSOLVERMUMPS : MATSOLVERPETSC));
+  TALUS_PETSC(SNESSetFromOptions(snes_));
 }
 
 template <int dim>
@@ -61,15 +58,10 @@ NewtonReport NewtonSolver<dim>::solve(MomentumSystem<dim>& system) {
   // leaves stale sizes inside some preconditioners, e.g. GAMG's coarse solver).
   TALUS_PETSC(SNESDestroy(&snes_));
   TALUS_PETSC(SNESCreate(comm_, &snes_));
-  TALUS_PETSC(SNESSetOptionsPrefix(snes_, "talus_"));
-  TALUS_PETSC(SNESSetFromOptions(snes_));
+  // Absolute tolerance in momentum units: 1e-12 of the step's momentum scale.
+  configure(1e-12 * system.momentum_scale() + 1e-300);
   TALUS_PETSC(SNESSetFunction(snes_, F, form_residual<dim>, &system));
   TALUS_PETSC(SNESSetJacobian(snes_, J, J, form_jacobian<dim>, &system));
-  if (!user_atol_) {
-    // Absolute tolerance in momentum units: 1e-12 of the step's momentum scale.
-    TALUS_PETSC(SNESSetTolerances(snes_, 1e-12 * system.momentum_scale() + 1e-300, PETSC_DEFAULT, PETSC_DEFAULT,
-                                  PETSC_DEFAULT, PETSC_DEFAULT));
-  }
   TALUS_PETSC(SNESSolve(snes_, nullptr, v));
   SNESConvergedReason reason;
   TALUS_PETSC(SNESGetConvergedReason(snes_, &reason));

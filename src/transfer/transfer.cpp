@@ -67,8 +67,8 @@ void particles_to_grid(const Grid<dim>& grid, const Particles<dim>& particles,
 
 template <int dim>
 void grid_to_particles(Particles<dim>& particles, const std::vector<Stencil<dim>>& stencils,
-                       const std::vector<double>& v_new, const std::vector<double>& v_old, double h, double theta,
-                       const TransferConfig& transfer) {
+                       const std::vector<double>& v_new, const std::vector<double>& v_old,
+                       const std::vector<double>& v_p2g, double h, double theta, const TransferConfig& transfer) {
   using RowMat = Eigen::Matrix<double, dim, dim, Eigen::RowMajor>;
   DM sw = particles.swarm();
   FieldView<PetscReal> x(sw, field::position), v(sw, field::velocity), c(sw, field::affine_velocity),
@@ -81,11 +81,12 @@ void grid_to_particles(Particles<dim>& particles, const std::vector<Stencil<dim>
     Vector<dim> v_end = Vector<dim>::Zero(), v_theta = Vector<dim>::Zero(), dv = Vector<dim>::Zero();
     Matrix<dim> grad_end = Matrix<dim>::Zero(), grad_theta = Matrix<dim>::Zero();
     for (int k = 0; k < st.count; ++k) {
-      const Eigen::Map<const Vector<dim>> vn(v_new.data() + dim * st.local[k]), vo(v_old.data() + dim * st.local[k]);
+      const std::size_t o = static_cast<std::size_t>(dim) * st.local[k];
+      const Eigen::Map<const Vector<dim>> vn(v_new.data() + o), vo(v_old.data() + o), vg(v_p2g.data() + o);
       const Vector<dim> vt = theta * vn + (1.0 - theta) * vo;
       v_end += st.weight[k] * vn;
       v_theta += st.weight[k] * vt;
-      dv += st.weight[k] * (vn - vo);
+      dv += st.weight[k] * (vn - vg);
       grad_end += vn * st.gradient[k].transpose();
       grad_theta += vt * st.gradient[k].transpose();
     }
@@ -110,11 +111,11 @@ template void particles_to_grid<2>(const Grid<2>&, const Particles<2>&, const st
 template void particles_to_grid<3>(const Grid<3>&, const Particles<3>&, const std::vector<Stencil<3>>&,
                                    TransferScheme, GridFields<3>&);
 template void grid_to_particles<2>(Particles<2>&, const std::vector<Stencil<2>>&,
-                                   const std::vector<double>&, const std::vector<double>&, double, double,
-                                   const TransferConfig&);
+                                   const std::vector<double>&, const std::vector<double>&,
+                                   const std::vector<double>&, double, double, const TransferConfig&);
 template void grid_to_particles<3>(Particles<3>&, const std::vector<Stencil<3>>&,
-                                   const std::vector<double>&, const std::vector<double>&, double, double,
-                                   const TransferConfig&);
+                                   const std::vector<double>&, const std::vector<double>&,
+                                   const std::vector<double>&, double, double, const TransferConfig&);
 
 }  // namespace talus
 

@@ -53,7 +53,6 @@ struct TransferConfig {
 
 struct SolverConfig {
   double active_mass_ratio = 1e-12;  // node active if m_i > ratio * max particle mass
-  int max_cutbacks = 10;
   std::vector<std::pair<std::string, std::string>> petsc_options;  // without the talus_ prefix
 };
 

@@ -26,17 +26,15 @@ class NewtonSolver {
 
   // Solves F(v) = 0; on success the system holds v^{n+1} (MomentumSystem::finish).
   NewtonReport solve(MomentumSystem<dim>& system);
-  SNES snes() const { return snes_; }
 
  private:
+  // Default solver (newtonls with full steps, rtol 1e-10, stol 0, 25
+  // iterations; direct LU, PETSc's on one rank, MUMPS on several), then the
+  // options database under the prefix talus_.
+  void configure(double absolute_tolerance);
+
   MPI_Comm comm_;
   SNES snes_ = nullptr;
-  bool user_atol_ = false;
 };
-
-// The default solver options (direct LU: PETSc's on one rank, MUMPS on
-// several; full Newton steps; relative tolerance 1e-10), set only where
-// neither the command line nor the case file chose a value.
-void set_default_solver_options(MPI_Comm comm);
 
 }  // namespace talus

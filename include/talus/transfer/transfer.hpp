@@ -30,14 +30,17 @@ void particles_to_grid(const Grid<dim>& grid, const Particles<dim>& particles,
                        const std::vector<Stencil<dim>>& stencils, TransferScheme scheme, GridFields<dim>& out);
 
 // G2P after the implicit solve. v_new: end-of-step grid velocity v^{n+1};
-// v_old: start-of-step v^n (both ghosted, dim per point). Positions and the
-// deformation gradient advance with v_theta = theta v^{n+1} + (1-theta) v^n
-// (Moreau-Jean q_{k+1} = q_k + h v_{k+theta}); particle velocities take
-// v^{n+1} by APIC (v_p, C_p = sum v_i grad N_i^T) or the FLIP/PIC blend.
+// v_old: start-of-step v^n as used by the solve (zero on constrained
+// components); v_p2g: v^n as transferred (the FLIP reference, so that a wall's
+// removal of the normal velocity reaches the particles). All ghosted, dim per
+// point. Positions and the deformation gradient advance with
+// v_theta = theta v^{n+1} + (1-theta) v_old (Moreau-Jean q_{k+1} = q_k + h v_{k+theta});
+// particle velocities take v^{n+1} by APIC (v_p, C_p = sum v_i grad N_i^T)
+// or the FLIP/PIC blend v_p <- a (v_p + sum N (v^{n+1} - v_p2g)) + (1 - a) sum N v^{n+1}.
 // Positions are not clamped here (Simulation keeps particles inside the box).
 template <int dim>
 void grid_to_particles(Particles<dim>& particles, const std::vector<Stencil<dim>>& stencils,
-                       const std::vector<double>& v_new, const std::vector<double>& v_old, double h, double theta,
-                       const TransferConfig& transfer);
+                       const std::vector<double>& v_new, const std::vector<double>& v_old,
+                       const std::vector<double>& v_p2g, double h, double theta, const TransferConfig& transfer);
 
 }  // namespace talus
