@@ -36,6 +36,7 @@ void LinearElastic::update(const Voigt& rotated_stress, const Voigt& strain_incr
   out.stress = rotated_stress + stiffness_ * strain_increment;
   out.tangent = stiffness_;
   out.trial_sensitivity.setIdentity();
+  out.plastic_strain_increment.setZero();
 }
 
 }  // namespace talus

@@ -3,6 +3,7 @@
 #include <map>
 
 #include "talus/io/yaml_section.hpp"
+#include "talus/materials/drucker_prager.hpp"
 #include "talus/materials/linear_elastic.hpp"
 
 namespace talus {
@@ -12,6 +13,7 @@ using Factory = std::function<std::unique_ptr<Material>(YamlSection&)>;
 const std::map<std::string, Factory>& registry() {
   static const std::map<std::string, Factory> models = {
       {"linear_elastic", &LinearElastic::from_yaml},
+      {"drucker_prager", &DruckerPrager::from_yaml},
   };
   return models;
 }

@@ -7,6 +7,7 @@
 // the step, the consistent tangent d sigma / d d_eps, the sensitivity
 // d sigma / d sigma* (identity for elasticity), and the new internal
 // variables. Stress and tangent come from the same call, so they always agree.
+// A material has at most max_state_size internal variables per particle.
 #include <memory>
 #include <string>
 
@@ -18,9 +19,12 @@ class YamlSection;
 
 struct MaterialPointUpdate {
   Voigt stress;
-  Tangent tangent;            // d stress / d strain_increment
-  Tangent trial_sensitivity;  // d stress / d rotated_stress
+  Tangent tangent;                  // d stress / d strain_increment
+  Tangent trial_sensitivity;        // d stress / d rotated_stress
+  Voigt plastic_strain_increment;   // engineering shear; zero for elastic steps
 };
+
+inline constexpr int max_state_size = 2;
 
 class Material {
  public:

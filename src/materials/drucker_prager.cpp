@@ -1,0 +1,138 @@
+#include "talus/materials/drucker_prager.hpp"
+
+#include <cmath>
+
+#include "talus/io/yaml_section.hpp"
+
+namespace talus {
+
+namespace {
+
+const Voigt unit_voigt = (Voigt() << 1, 1, 1, 0, 0, 0).finished();
+
+// The same tensor as a strain-like Voigt vector (shears doubled), so that
+// a.dot(strain_like(b)) = a : b for stress-like a and b.
+Voigt strain_like(const Voigt& s) {
+  Voigt e = s;
+  e.tail<3>() *= 2.0;
+  return e;
+}
+
+double norm(const Voigt& s) { return std::sqrt(s.dot(strain_like(s))); }
+
+}  // namespace
+
+void drucker_prager_coefficients(MohrCoulombMatch match, double angle, double& eta, double& xi) {
+  const double s = std::sin(angle), c = std::cos(angle), t = std::tan(angle);
+  switch (match) {
+    case MohrCoulombMatch::outer:  // through the compressive meridians of Mohr-Coulomb
+      eta = 6.0 * s / (std::sqrt(3.0) * (3.0 - s));
+      xi = 6.0 * c / (std::sqrt(3.0) * (3.0 - s));
+      break;
+    case MohrCoulombMatch::inner:  // through the extension meridians
+      eta = 6.0 * s / (std::sqrt(3.0) * (3.0 + s));
+      xi = 6.0 * c / (std::sqrt(3.0) * (3.0 + s));
+      break;
+    case MohrCoulombMatch::plane_strain:  // same collapse load in plane strain
+      eta = 3.0 * t / std::sqrt(9.0 + 12.0 * t * t);
+      xi = 3.0 / std::sqrt(9.0 + 12.0 * t * t);
+      break;
+  }
+}
+
+DruckerPrager::DruckerPrager(const DruckerPragerParameters& p)
+    : par_(p), stiffness_(isotropic_stiffness(p.youngs_modulus, p.poisson_ratio)) {
+  drucker_prager_coefficients(p.match, p.friction_angle, eta_, xi_);
+  double unused;
+  drucker_prager_coefficients(p.match, p.dilatancy_angle, eta_bar_, unused);
+  shear_ = p.youngs_modulus / (2.0 * (1.0 + p.poisson_ratio));
+  bulk_ = p.youngs_modulus / (3.0 * (1.0 - 2.0 * p.poisson_ratio));
+  compliance_ = stiffness_.inverse();
+}
+
+std::unique_ptr<Material> DruckerPrager::from_yaml(YamlSection& y) {
+  DruckerPragerParameters p;
+  p.density = y.positive("density", y.real("density"));
+  p.youngs_modulus = y.positive("youngs_modulus", y.real("youngs_modulus"));
+  p.poisson_ratio = y.real("poisson_ratio");
+  if (!(p.poisson_ratio >= 0.0 && p.poisson_ratio < 0.5))
+    y.fail_value("poisson_ratio", std::to_string(p.poisson_ratio), "must be in [0, 0.5)");
+  const double phi = y.real("friction_angle");
+  if (!(phi > 0.0 && phi < 90.0)) y.fail_value("friction_angle", std::to_string(phi), "must be in (0, 90) degrees");
+  const double psi = y.real("dilatancy_angle", 0.0);
+  if (!(psi >= 0.0 && psi <= phi))
+    y.fail_value("dilatancy_angle", std::to_string(psi), "must be in [0, friction_angle] degrees");
+  p.cohesion = y.real("cohesion", 0.0);
+  if (p.cohesion < 0) y.fail_value("cohesion", std::to_string(p.cohesion), "must be >= 0");
+  p.hardening_modulus = y.real("hardening_modulus", 0.0);
+  const std::string match = y.choice("mohr_coulomb_match", {"outer", "inner", "plane_strain"}, "plane_strain");
+  p.match = match == "outer" ? MohrCoulombMatch::outer
+            : match == "inner" ? MohrCoulombMatch::inner
+                               : MohrCoulombMatch::plane_strain;
+  p.friction_angle = phi * M_PI / 180.0;
+  p.dilatancy_angle = psi * M_PI / 180.0;
+  return std::make_unique<DruckerPrager>(p);
+}
+
+double DruckerPrager::yield_function(const Voigt& stress, double alpha) const {
+  const double p = mean_stress(stress);
+  const Voigt s = stress - p * unit_voigt;
+  const double c = std::max(0.0, par_.cohesion + par_.hardening_modulus * alpha);
+  return norm(s) / std::sqrt(2.0) + eta_ * p - xi_ * c;
+}
+
+void DruckerPrager::update(const Voigt& rotated_stress, const Voigt& strain_increment, const double* state_old,
+                           double* state_new, MaterialPointUpdate& out) const {
+  const double G = shear_, K = bulk_, H = par_.hardening_modulus;
+  const double alpha_n = state_old ? state_old[0] : 0.0;
+  const double c_n = par_.cohesion + H * alpha_n;
+  const Voigt trial = rotated_stress + stiffness_ * strain_increment;
+  const double p_tr = mean_stress(trial);
+  const Voigt s_tr = trial - p_tr * unit_voigt;
+  const double sqrt_j2 = norm(s_tr) / std::sqrt(2.0);
+  const double f_tr = sqrt_j2 + eta_ * p_tr - xi_ * c_n;
+  // Relative tolerance on the yield test: round-off of the trial stress.
+  const double scale = std::abs(p_tr) + sqrt_j2 + xi_ * std::abs(c_n);
+  if (f_tr <= 1e-12 * scale) {
+    out.stress = trial;
+    out.tangent = stiffness_;
+    out.trial_sensitivity.setIdentity();
+    out.plastic_strain_increment.setZero();
+    if (state_new) state_new[0] = alpha_n;
+    return;
+  }
+  const Tangent P_dev = Tangent::Identity() - unit_voigt * unit_voigt.transpose() / 3.0;
+  const Voigt n = sqrt_j2 > 0 ? Voigt(s_tr / (std::sqrt(2.0) * sqrt_j2)) : Voigt(Voigt::Zero());  // unit deviator
+
+  // Return to the smooth part of the cone: f(dgamma) is linear in dgamma.
+  const double A = G + K * eta_ * eta_bar_ + xi_ * xi_ * H;
+  const double dgamma = f_tr / A;
+  Tangent S;  // d sigma / d trial
+  if (sqrt_j2 - G * dgamma >= 0.0) {
+    const double ratio = G * dgamma / sqrt_j2;
+    out.stress = (1.0 - ratio) * s_tr + (p_tr - K * eta_bar_ * dgamma) * unit_voigt;
+    // d dgamma / d trial = (n/sqrt2 + eta/3 I) : / A  (strain-like row)
+    const Voigt ddg = strain_like(n / std::sqrt(2.0) + eta_ / 3.0 * unit_voigt) / A;
+    const Tangent ds = (1.0 - ratio) * P_dev - std::sqrt(2.0) * G * n * ddg.transpose() +
+                       ratio * n * strain_like(n).transpose();
+    const Voigt dp = unit_voigt / 3.0 - K * eta_bar_ * ddg;
+    S = ds + unit_voigt * dp.transpose();
+    if (state_new) state_new[0] = alpha_n + xi_ * dgamma;
+  } else {
+    // Apex: sigma = p I with p = xi c / eta; the modified plastic strain
+    // eps_hat lies in the normal cone of the apex, tr(eps_hat) = eta dgamma,
+    //   eta dgamma = (p_tr - p) / K + (eta - eta_bar) sqrt(J2_tr) / G.
+    const double denom = eta_ + xi_ * xi_ * H / (eta_ * K);
+    const double dg = ((p_tr - xi_ * c_n / eta_) / K + (eta_ - eta_bar_) * sqrt_j2 / G) / denom;
+    const double p = xi_ * (c_n + H * xi_ * dg) / eta_;
+    out.stress = p * unit_voigt;
+    const Voigt ddg = strain_like(unit_voigt / (3.0 * K) + (eta_ - eta_bar_) / G * n / std::sqrt(2.0)) / denom;
+    S = unit_voigt * (xi_ * xi_ * H / eta_ * ddg).transpose();
+    if (state_new) state_new[0] = alpha_n + xi_ * dg;
+  }
+  out.trial_sensitivity = S;
+  out.tangent = S * stiffness_;
+  out.plastic_strain_increment = compliance_ * (trial - out.stress);
+}
+
+}  // namespace talus
