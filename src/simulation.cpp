@@ -59,7 +59,7 @@ Simulation<dim>::Simulation(const CaseConfig& config, MPI_Comm comm) : config_(c
   MPI_Allreduce(&local_max, &max_mass, 1, MPI_DOUBLE, MPI_MAX, comm);
   mass_threshold_ = config.solver.active_mass_ratio * max_mass;
   apply_case_petsc_options(config);
-  newton_ = std::make_unique<NewtonSolver<dim>>(comm);
+  newton_ = std::make_unique<NewtonSolver<dim>>(comm, config.solver.direct_solver_limit);
 }
 
 template <int dim>
@@ -100,9 +100,19 @@ StepReport Simulation<dim>::advance(double h) {
                     config_.time.theta, config_.transfer);
   // 7. Commit the material state: sigma^{n+1} at the converged velocities.
   {
-    FieldView<PetscReal> s(particles_->swarm(), field::stress);
+    DM sw = particles_->swarm();
+    FieldView<PetscReal> s(sw, field::stress), state(sw, field::material_state),
+        plastic(sw, field::cumulative_plastic_strain);
     const auto& end = system.end_stress();
-    for (std::size_t p = 0; p < end.size(); ++p) Eigen::Map<Voigt>(s.data() + 6 * p) = end[p];
+    const auto& dep = system.plastic_strain_increment();
+    std::copy(system.end_state().begin(), system.end_state().end(), state.data());
+    for (std::size_t p = 0; p < end.size(); ++p) {
+      Eigen::Map<Voigt>(s.data() + 6 * p) = end[p];
+      // Equivalent plastic strain increment sqrt(2/3 d_eps_p : d_eps_p) (engineering shears halved).
+      const Voigt& e = dep[p];
+      const double norm2 = e.head<3>().squaredNorm() + 0.5 * e.tail<3>().squaredNorm();
+      plastic[p] += std::sqrt(2.0 / 3.0 * norm2);
+    }
   }
   check_finite();
   keep_particles_inside();

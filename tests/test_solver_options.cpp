@@ -47,7 +47,7 @@ TEST_CASE("case-file PETSc options select the solver; the command line wins", "[
   const StepReport overridden = one_step(krylov);
   REQUIRE(overridden.converged);
   CHECK(overridden.newton.linear_iterations == overridden.newton.iterations);
-  clear("-talus_ksp_rtol");
+  for (const char* name : {"-talus_ksp_rtol", "-talus_ksp_type", "-talus_pc_type"}) clear(name);
 }
 
 TEST_CASE("a failed Newton solve leaves the particles untouched and the run stops after cut-backs", "[solver]") {
@@ -65,4 +65,14 @@ TEST_CASE("a failed Newton solve leaves the particles untouched and the run stop
   // h = 0.01, 0.005, ..., 0.000625 < 0.1 * 0.01: the run gives up with a clear error.
   CHECK_THROWS_AS(sim.run(nullptr), SimulationError);
   clear("-talus_snes_max_it");
+}
+
+TEST_CASE("systems above solver.direct_solver_limit default to GMRES + GAMG", "[solver]") {
+  const StepReport small = one_step(base);
+  const StepReport large = one_step(base + "solver: {direct_solver_limit: 10}\n");
+  REQUIRE(small.converged);
+  REQUIRE(large.converged);
+  CHECK(small.newton.linear_iterations == small.newton.iterations);   // LU: one solve each
+  CHECK(large.newton.linear_iterations > 3 * large.newton.iterations);  // Krylov iterations
+  CHECK(large.newton.iterations <= 2);  // the linear tolerance is below Newton's
 }

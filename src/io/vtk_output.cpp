@@ -48,7 +48,8 @@ std::string VtkSeries<dim>::write(const Particles<dim>& particles, double time) 
   const PetscInt n = particles.local_count();
   DM sw = particles.swarm();
   FieldView<PetscReal> x(sw, field::position), v(sw, field::velocity), u(sw, field::displacement),
-      s(sw, field::stress), m(sw, field::mass), v0(sw, field::initial_volume), F(sw, field::deformation_gradient);
+      s(sw, field::stress), m(sw, field::mass), v0(sw, field::initial_volume), F(sw, field::deformation_gradient),
+      eps_p(sw, field::cumulative_plastic_strain);
   FieldView<PetscInt> mat(sw, field::material_id), body(sw, field::body_id);
   FieldView<std::int64_t> pid(sw, field::particle_id);
 
@@ -75,7 +76,7 @@ std::string VtkSeries<dim>::write(const Particles<dim>& particles, double time) 
   stress->SetNumberOfComponents(6);  // ParaView's symmetric tensor order: XX YY ZZ XY YZ XZ
   stress->SetNumberOfTuples(n);
   auto p_arr = scalar("mean_stress"), q_arr = scalar("deviatoric_stress"), mass = scalar("mass"),
-       volume = scalar("volume");
+       volume = scalar("volume"), plastic = scalar("cumulative_plastic_strain");
   vtkNew<vtkIntArray> material, body_id;
   material->SetName("material_id");
   material->SetNumberOfTuples(n);
@@ -105,6 +106,7 @@ std::string VtkSeries<dim>::write(const Particles<dim>& particles, double time) 
     mass->SetValue(p, m[p]);
     const Eigen::Map<const Eigen::Matrix<double, dim, dim, Eigen::RowMajor>> Fp(F.data() + dim * dim * p);
     volume->SetValue(p, v0[p] * Fp.determinant());
+    plastic->SetValue(p, eps_p[p]);
     material->SetValue(p, mat[p]);
     body_id->SetValue(p, body[p]);
     ids->SetValue(p, pid[p]);
@@ -114,7 +116,7 @@ std::string VtkSeries<dim>::write(const Particles<dim>& particles, double time) 
   ug->SetCells(VTK_VERTEX, cells);
   vtkPointData* pd = ug->GetPointData();
   for (vtkDataArray* a : std::initializer_list<vtkDataArray*>{velocity, displacement, stress, p_arr, q_arr, mass,
-                                                                volume, material, body_id, ids})
+                                                                volume, plastic, material, body_id, ids})
     pd->AddArray(a);
   pd->SetActiveVectors("velocity");
 

@@ -1,5 +1,7 @@
 #include "talus/particles/particles.hpp"
 
+#include "talus/materials/material.hpp"
+
 namespace talus {
 
 template <int dim>
@@ -19,6 +21,8 @@ Particles<dim>::Particles(const Grid<dim>& grid) {
   TALUS_PETSC(DMSwarmRegisterPetscDatatypeField(swarm_, field::initial_volume, 1, PETSC_REAL));
   TALUS_PETSC(DMSwarmRegisterPetscDatatypeField(swarm_, field::deformation_gradient, dim * dim, PETSC_REAL));
   TALUS_PETSC(DMSwarmRegisterPetscDatatypeField(swarm_, field::stress, 6, PETSC_REAL));
+  TALUS_PETSC(DMSwarmRegisterPetscDatatypeField(swarm_, field::material_state, max_state_size, PETSC_REAL));
+  TALUS_PETSC(DMSwarmRegisterPetscDatatypeField(swarm_, field::cumulative_plastic_strain, 1, PETSC_REAL));
   TALUS_PETSC(DMSwarmRegisterPetscDatatypeField(swarm_, field::material_id, 1, PETSC_INT));
   TALUS_PETSC(DMSwarmRegisterPetscDatatypeField(swarm_, field::body_id, 1, PETSC_INT));
   TALUS_PETSC(DMSwarmRegisterPetscDatatypeField(swarm_, field::particle_id, 1, PETSC_INT64));

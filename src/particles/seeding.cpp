@@ -42,7 +42,8 @@ std::int64_t seed_box_body(Particles<dim>& particles, const Grid<dim>& grid, con
   DM sw = particles.swarm();
   FieldView<PetscReal> pos(sw, field::position), vel(sw, field::velocity), aff(sw, field::affine_velocity),
       disp(sw, field::displacement), mass(sw, field::mass), vol0(sw, field::initial_volume),
-      defgrad(sw, field::deformation_gradient), stress(sw, field::stress);
+      defgrad(sw, field::deformation_gradient), stress(sw, field::stress), state(sw, field::material_state),
+      plastic(sw, field::cumulative_plastic_strain);
   FieldView<PetscInt> mat(sw, field::material_id), bid(sw, field::body_id);
   FieldView<std::int64_t> pid(sw, field::particle_id);
   const double volume = std::pow(spacing, dim);
@@ -60,6 +61,8 @@ std::int64_t seed_box_body(Particles<dim>& particles, const Grid<dim>& grid, con
       defgrad[dim * dim * p + i] = (i % (dim + 1) == 0) ? 1.0 : 0.0;
     }
     for (int i = 0; i < 6; ++i) stress[6 * p + i] = 0.0;
+    for (int i = 0; i < max_state_size; ++i) state[max_state_size * p + i] = 0.0;
+    plastic[p] = 0.0;
     mass[p] = material.density() * volume;
     vol0[p] = volume;
     mat[p] = body.material;

@@ -22,6 +22,9 @@ MomentumSystem<dim>::MomentumSystem(const Grid<dim>& grid, const Particles<dim>&
   DM sw = particles.swarm();
   FieldView<PetscReal> s(sw, field::stress), v0(sw, field::initial_volume), F(sw, field::deformation_gradient);
   FieldView<PetscInt> mat(sw, field::material_id);
+  FieldView<PetscReal> state(sw, field::material_state);
+  state_old_.assign(state.data(), state.data() + static_cast<std::size_t>(max_state_size) * np);
+  state_end_ = state_old_;
   stress_old_.resize(np);
   volume_.resize(np);
   material_.resize(np);
@@ -32,6 +35,7 @@ MomentumSystem<dim>::MomentumSystem(const Grid<dim>& grid, const Particles<dim>&
     material_[p] = mat[p];
   }
   stress_end_ = stress_old_;
+  plastic_increment_.assign(np, Voigt::Zero());
   tangent_.resize(np);
 
   // v^n on the unknowns only: inactive points and constrained components carry none.
@@ -84,8 +88,10 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
     Voigt strain;
     strain << h_ * L3(0, 0), h_ * L3(1, 1), h_ * L3(2, 2), h_ * (L3(1, 2) + L3(2, 1)), h_ * (L3(0, 2) + L3(2, 0)),
         h_ * (L3(0, 1) + L3(1, 0));
-    materials_[material_[p]]->update(rotated, strain, nullptr, nullptr, update);
+    materials_[material_[p]]->update(rotated, strain, state_old_.data() + max_state_size * p,
+                                     state_end_.data() + max_state_size * p, update);
     stress_end_[p] = update.stress;
+    plastic_increment_[p] = update.plastic_strain_increment;
 
     // A = d sigma^{n+1}_ij / d L_kl = h D[ij, kl] + S[ij, :] d sigma*/d L_kl, with
     // d sigma*_ij / d L_kl = h/2 (d_ik s_lj - d_il s_kj - s_ik d_lj + s_il d_kj).
@@ -278,6 +284,21 @@ Mat MomentumSystem<dim>::create_matrix() const {
   TALUS_PETSC(MatSetFromOptions(J));
   TALUS_PETSC(MatXAIJSetPreallocation(J, dim, d_nnz.data(), o_nnz.data(), nullptr, nullptr));
   TALUS_PETSC(MatSetOption(J, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE));
+  // Rigid-body modes at the points' positions: the near null space that lets
+  // algebraic multigrid (GAMG) treat the elastic operator well.
+  Vec coordinates = active_.create_vector();
+  PetscScalar* c;
+  TALUS_PETSC(VecGetArray(coordinates, &c));
+  for (PetscInt k = 0; k < nloc; ++k) {
+    const Vector<dim> x = grid_.point_position(grid_.global_index(owned[k]));
+    for (int a = 0; a < dim; ++a) c[dim * k + a] = x[a];
+  }
+  TALUS_PETSC(VecRestoreArray(coordinates, &c));
+  MatNullSpace rigid;
+  TALUS_PETSC(MatNullSpaceCreateRigidBody(coordinates, &rigid));
+  TALUS_PETSC(MatSetNearNullSpace(J, rigid));
+  TALUS_PETSC(MatNullSpaceDestroy(&rigid));
+  TALUS_PETSC(VecDestroy(&coordinates));
   return J;
 }
 

@@ -17,7 +17,7 @@ PetscErrorCode form_jacobian(SNES, Vec v, Mat J, Mat, void* ctx) {
 }  // namespace
 
 template <int dim>
-NewtonSolver<dim>::NewtonSolver(MPI_Comm comm) : comm_(comm) {}
+NewtonSolver<dim>::NewtonSolver(MPI_Comm comm, PetscInt direct_limit) : comm_(comm), direct_limit_(direct_limit) {}
 
 template <int dim>
 NewtonSolver<dim>::~NewtonSolver() {
@@ -25,7 +25,7 @@ NewtonSolver<dim>::~NewtonSolver() {
 }
 
 template <int dim>
-void NewtonSolver<dim>::configure(double absolute_tolerance) {
+void NewtonSolver<dim>::configure(double absolute_tolerance, PetscInt unknowns) {
   // Defaults are set on the objects, then SNESSetFromOptions lets the options
   // database (command line, case file) override any of them.
   TALUS_PETSC(SNESSetOptionsPrefix(snes_, "talus_"));
@@ -37,13 +37,22 @@ void NewtonSolver<dim>::configure(double absolute_tolerance) {
   KSP ksp;
   PC pc;
   TALUS_PETSC(SNESGetKSP(snes_, &ksp));
-  TALUS_PETSC(KSPSetType(ksp, KSPPREONLY));
   TALUS_PETSC(KSPGetPC(ksp, &pc));
-  TALUS_PETSC(PCSetType(pc, PCLU));
-  // PETSc's own LU is the fastest for small serial systems; MUMPS factors in parallel.
-  int size = 1;
-  MPI_Comm_size(comm_, &size);
-  TALUS_PETSC(PCFactorSetMatSolverType(pc, size > 1 ? MATSOLVERMUMPS : MATSOLVERPETSC));
+  if (unknowns <= direct_limit_) {
+    TALUS_PETSC(KSPSetType(ksp, KSPPREONLY));
+    TALUS_PETSC(PCSetType(pc, PCLU));
+    // PETSc's own LU is the fastest for small serial systems; MUMPS factors in parallel.
+    int size = 1;
+    MPI_Comm_size(comm_, &size);
+    TALUS_PETSC(PCFactorSetMatSolverType(pc, size > 1 ? MATSOLVERMUMPS : MATSOLVERPETSC));
+  } else {
+    // Large systems: GMRES (the Jacobian is non-symmetric) with algebraic
+    // multigrid; the linear tolerance sits below Newton's so that a linear
+    // problem still converges in one Newton iteration.
+    TALUS_PETSC(KSPSetType(ksp, KSPGMRES));
+    TALUS_PETSC(KSPSetTolerances(ksp, 1e-11, PETSC_DEFAULT, PETSC_DEFAULT, 500));
+    TALUS_PETSC(PCSetType(pc, PCGAMG));
+  }
   TALUS_PETSC(SNESSetFromOptions(snes_));
 }
 
@@ -59,7 +68,9 @@ NewtonReport NewtonSolver<dim>::solve(MomentumSystem<dim>& system) {
   TALUS_PETSC(SNESDestroy(&snes_));
   TALUS_PETSC(SNESCreate(comm_, &snes_));
   // Absolute tolerance in momentum units: 1e-12 of the step's momentum scale.
-  configure(1e-12 * system.momentum_scale() + 1e-300);
+  PetscInt unknowns;
+  TALUS_PETSC(VecGetSize(v, &unknowns));
+  configure(1e-12 * system.momentum_scale() + 1e-300, unknowns);
   TALUS_PETSC(SNESSetFunction(snes_, F, form_residual<dim>, &system));
   TALUS_PETSC(SNESSetJacobian(snes_, J, J, form_jacobian<dim>, &system));
   TALUS_PETSC(SNESSolve(snes_, nullptr, v));

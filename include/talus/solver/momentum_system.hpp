@@ -47,6 +47,8 @@ class MomentumSystem {
   const std::vector<double>& end_velocity() const { return velocity_; }
   const std::vector<double>& start_velocity() const { return velocity_old_; }
   const std::vector<Voigt>& end_stress() const { return stress_end_; }
+  const std::vector<double>& end_state() const { return state_end_; }  // max_state_size per particle
+  const std::vector<Voigt>& plastic_strain_increment() const { return plastic_increment_; }
 
  private:
   void evaluate_particles(Vec v);
@@ -64,10 +66,12 @@ class MomentumSystem {
   std::vector<Voigt> stress_old_;
   std::vector<double> volume_;
   std::vector<int> material_;
+  std::vector<double> state_old_;  // internal variables, max_state_size per particle
 
   // Results of the last evaluation.
   std::vector<double> velocity_, velocity_old_, force_;
-  std::vector<Voigt> stress_end_;
+  std::vector<Voigt> stress_end_, plastic_increment_;
+  std::vector<double> state_end_;
   std::vector<StressTangent> tangent_;
   Vec evaluated_at_ = nullptr;  // the v of the last evaluation
 };

@@ -19,7 +19,9 @@ struct NewtonReport {
 template <int dim>
 class NewtonSolver {
  public:
-  explicit NewtonSolver(MPI_Comm comm);
+  // direct_limit: largest number of unknowns solved by LU by default; larger
+  // systems default to GMRES + GAMG.
+  NewtonSolver(MPI_Comm comm, PetscInt direct_limit);
   ~NewtonSolver();
   NewtonSolver(const NewtonSolver&) = delete;
   NewtonSolver& operator=(const NewtonSolver&) = delete;
@@ -29,11 +31,13 @@ class NewtonSolver {
 
  private:
   // Default solver (newtonls with full steps, rtol 1e-10, stol 0, 25
-  // iterations; direct LU, PETSc's on one rank, MUMPS on several), then the
-  // options database under the prefix talus_.
-  void configure(double absolute_tolerance);
+  // iterations; direct LU, PETSc's on one rank, MUMPS on several, or
+  // GMRES + GAMG above direct_limit unknowns), then the options database
+  // under the prefix talus_.
+  void configure(double absolute_tolerance, PetscInt unknowns);
 
   MPI_Comm comm_;
+  PetscInt direct_limit_;
   SNES snes_ = nullptr;
 };
 
