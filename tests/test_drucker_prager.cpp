@@ -214,3 +214,18 @@ TEST_CASE("Drucker-Prager: the tangent is non-symmetric exactly when psi != phi"
   CHECK((assoc.tangent - assoc.tangent.transpose()).norm() <= 1e-9 * assoc.tangent.norm());
   CHECK((nonassoc.tangent - nonassoc.tangent.transpose()).norm() > 1e-3 * nonassoc.tangent.norm());
 }
+
+TEST_CASE("Drucker-Prager: softening stops at zero cohesion", "[plasticity]") {
+  // H = -1e6 Pa: c reaches 0 after alpha = 0.01; a large shear step must end on
+  // the c = 0 cone (f(sigma, alpha) with c clamped at 0), never with c < 0.
+  const DruckerPrager m = make(30, 0, 1e4, -1e6);
+  const Voigt sigma0 = -2e4 * unit;
+  const Voigt de = (Voigt() << 0, 0, 0, 0, 0, 5e-2).finished();
+  double alpha = 0;
+  const MaterialPointUpdate u = update(m, sigma0, de, &alpha);
+  CHECK(alpha > 0.01);
+  const double p = mean_stress(u.stress);
+  const Voigt s = u.stress - p * unit;
+  const double sqrt_j2 = std::sqrt(0.5 * (s.head<3>().squaredNorm() + 2 * s.tail<3>().squaredNorm()));
+  CHECK(sqrt_j2 + m.eta() * p == Approx(0.0).margin(1e-8 * std::abs(p)));  // on the c = 0 cone
+}

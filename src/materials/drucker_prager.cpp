@@ -83,9 +83,22 @@ double DruckerPrager::yield_function(const Voigt& stress, double alpha) const {
 
 void DruckerPrager::update(const Voigt& rotated_stress, const Voigt& strain_increment, const double* state_old,
                            double* state_new, MaterialPointUpdate& out) const {
-  const double G = shear_, K = bulk_, H = par_.hardening_modulus;
   const double alpha_n = state_old ? state_old[0] : 0.0;
-  const double c_n = par_.cohesion + H * alpha_n;
+  // Softening stops at zero cohesion: from there on the cone no longer shrinks.
+  const double c_n = std::max(0.0, par_.cohesion + par_.hardening_modulus * alpha_n);
+  const double H = c_n > 0.0 ? par_.hardening_modulus : std::max(0.0, par_.hardening_modulus);
+  double alpha = alpha_n;
+  return_map(rotated_stress, strain_increment, alpha_n, c_n, H, &alpha, out);
+  if (H < 0.0 && c_n + H * (alpha - alpha_n) < 0.0) {
+    // The step softened past zero cohesion: redo it on the c = 0 cone.
+    return_map(rotated_stress, strain_increment, alpha_n, 0.0, 0.0, &alpha, out);
+  }
+  if (state_new) state_new[0] = alpha;
+}
+
+void DruckerPrager::return_map(const Voigt& rotated_stress, const Voigt& strain_increment, double alpha_n,
+                               double c_n, double H, double* alpha_new, MaterialPointUpdate& out) const {
+  const double G = shear_, K = bulk_;
   const Voigt trial = rotated_stress + stiffness_ * strain_increment;
   const double p_tr = mean_stress(trial);
   const Voigt s_tr = trial - p_tr * unit_voigt;
@@ -98,7 +111,7 @@ void DruckerPrager::update(const Voigt& rotated_stress, const Voigt& strain_incr
     out.tangent = stiffness_;
     out.trial_sensitivity.setIdentity();
     out.plastic_strain_increment.setZero();
-    if (state_new) state_new[0] = alpha_n;
+    *alpha_new = alpha_n;
     return;
   }
   const Tangent P_dev = Tangent::Identity() - unit_voigt * unit_voigt.transpose() / 3.0;
@@ -117,7 +130,7 @@ void DruckerPrager::update(const Voigt& rotated_stress, const Voigt& strain_incr
                        ratio * n * strain_like(n).transpose();
     const Voigt dp = unit_voigt / 3.0 - K * eta_bar_ * ddg;
     S = ds + unit_voigt * dp.transpose();
-    if (state_new) state_new[0] = alpha_n + xi_ * dgamma;
+    *alpha_new = alpha_n + xi_ * dgamma;
   } else {
     // Apex: sigma = p I with p = xi c / eta; the modified plastic strain
     // eps_hat lies in the normal cone of the apex, tr(eps_hat) = eta dgamma,
@@ -128,7 +141,7 @@ void DruckerPrager::update(const Voigt& rotated_stress, const Voigt& strain_incr
     out.stress = p * unit_voigt;
     const Voigt ddg = strain_like(unit_voigt / (3.0 * K) + (eta_ - eta_bar_) / G * n / std::sqrt(2.0)) / denom;
     S = unit_voigt * (xi_ * xi_ * H / eta_ * ddg).transpose();
-    if (state_new) state_new[0] = alpha_n + xi_ * dg;
+    *alpha_new = alpha_n + xi_ * dg;
   }
   out.trial_sensitivity = S;
   out.tangent = S * stiffness_;

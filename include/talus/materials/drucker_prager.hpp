@@ -51,6 +51,10 @@ class DruckerPrager final : public Material {
   double bulk_modulus() const { return bulk_; }
 
  private:
+  // The closed-form return with cohesion c_n and slope H = dc/dalpha.
+  void return_map(const Voigt& rotated_stress, const Voigt& strain_increment, double alpha_n, double c_n, double H,
+                  double* alpha_new, MaterialPointUpdate& out) const;
+
   DruckerPragerParameters par_;
   double eta_, xi_, eta_bar_, shear_, bulk_;
   Tangent stiffness_, compliance_;
