@@ -73,7 +73,13 @@ NewtonReport NewtonSolver<dim>::solve(MomentumSystem<dim>& system) {
   configure(1e-12 * system.momentum_scale() + 1e-300, unknowns);
   TALUS_PETSC(SNESSetFunction(snes_, F, form_residual<dim>, &system));
   TALUS_PETSC(SNESSetJacobian(snes_, J, J, form_jacobian<dim>, &system));
+  std::vector<PetscReal> history(64);
+  TALUS_PETSC(SNESSetConvergenceHistory(snes_, history.data(), nullptr, static_cast<PetscInt>(history.size()),
+                                        PETSC_TRUE));
   TALUS_PETSC(SNESSolve(snes_, nullptr, v));
+  PetscInt recorded = 0;
+  TALUS_PETSC(SNESGetConvergenceHistory(snes_, nullptr, nullptr, &recorded));
+  report.residual_norms.assign(history.begin(), history.begin() + recorded);
   SNESConvergedReason reason;
   TALUS_PETSC(SNESGetConvergedReason(snes_, &reason));
   TALUS_PETSC(SNESGetIterationNumber(snes_, &report.iterations));

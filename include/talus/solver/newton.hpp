@@ -4,6 +4,7 @@
 #include <petscsnes.h>
 
 #include <string>
+#include <vector>
 
 #include "talus/solver/momentum_system.hpp"
 
@@ -14,6 +15,7 @@ struct NewtonReport {
   PetscInt iterations = 0;
   PetscInt linear_iterations = 0;
   std::string reason;
+  std::vector<double> residual_norms;  // ||F|| at every Newton iterate, the initial guess first
 };
 
 template <int dim>
