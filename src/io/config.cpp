@@ -315,7 +315,7 @@ CaseConfig parse_root(YamlSection& root) {
     c.solver.active_mass_ratio = s.real("active_mass_ratio", 1e-12);
     if (!(c.solver.active_mass_ratio >= 0 && c.solver.active_mass_ratio < 1))
       s.fail_value("active_mass_ratio", std::to_string(c.solver.active_mass_ratio), "must be in [0, 1)");
-    c.solver.direct_solver_limit = s.integer("direct_solver_limit", 20000);
+    c.solver.direct_solver_limit = s.integer("direct_solver_limit", 5000);
     if (c.solver.direct_solver_limit < 0)
       s.fail_value("direct_solver_limit", std::to_string(c.solver.direct_solver_limit), "must be >= 0");
     for (auto& [k, v] : s.free_map("petsc_options")) {
