@@ -83,6 +83,12 @@ TEST_CASE("malformed cases name the key, the value and the line", "[config]") {
       {replace(valid, "y_min: fixed", "y_min: glued"), "boundaries.y_min = glued: must be one of: free, slip, fixed"},
       {replace(valid, "upper: [2, 1]", "upper: [2, 1, 1]"), "grid.upper"},
       {replace(valid, "time: {end: 1.0, step: 0.01}", "time: {end: 1.0, step: 0.01, theta: 0.3}"), "time.theta = 0.3"},
+      {replace(valid, "model: linear_elastic", "model: drucker_prager\n    friction_angle: 30\n    dilatancy_angle: 40"),
+       "case.yaml:11: materials[0].dilatancy_angle = 40"},
+      {replace(valid, "model: linear_elastic", "model: drucker_prager\n    friction_angle: 95"),
+       "case.yaml:10: materials[0].friction_angle = 95"},
+      {replace(valid, "model: linear_elastic", "model: drucker_prager\n    friction_angle: 30\n    cohesion: -5"),
+       "materials[0].cohesion = -5"},
       {"grid: [1, 2\n", "case.yaml:2: YAML syntax error"},
       {"", "the case file must be a YAML map"},
   };

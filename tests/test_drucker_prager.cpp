@@ -14,18 +14,8 @@ namespace {
 
 const Voigt unit = (Voigt() << 1, 1, 1, 0, 0, 0).finished();
 
-DruckerPrager make(double phi_deg, double psi_deg, double cohesion, double hardening = 0.0,
-                   MohrCoulombMatch match = MohrCoulombMatch::plane_strain) {
-  DruckerPragerParameters p;
-  p.density = 2000;
-  p.youngs_modulus = 1e7;
-  p.poisson_ratio = 0.3;
-  p.friction_angle = phi_deg * M_PI / 180;
-  p.dilatancy_angle = psi_deg * M_PI / 180;
-  p.cohesion = cohesion;
-  p.hardening_modulus = hardening;
-  p.match = match;
-  return DruckerPrager(p);
+DruckerPrager make(double phi_deg, double psi_deg, double cohesion, double hardening = 0.0) {
+  return DruckerPrager(drucker_prager_parameters(2000, 1e7, 0.3, phi_deg, psi_deg, cohesion, hardening));
 }
 
 MaterialPointUpdate update(const DruckerPrager& m, const Voigt& sigma0, const Voigt& de, double* alpha = nullptr) {

@@ -53,15 +53,7 @@ TriaxialResult triaxial(const DruckerPrager& m, double confining) {
 }
 
 DruckerPrager sand(double phi, double psi, double c, MohrCoulombMatch match) {
-  DruckerPragerParameters p;
-  p.density = 2000;
-  p.youngs_modulus = 5e7;
-  p.poisson_ratio = 0.25;
-  p.friction_angle = phi * M_PI / 180;
-  p.dilatancy_angle = psi * M_PI / 180;
-  p.cohesion = c;
-  p.match = match;
-  return DruckerPrager(p);
+  return DruckerPrager(drucker_prager_parameters(2000, 5e7, 0.25, phi, psi, c, 0.0, match));
 }
 
 }  // namespace

@@ -22,6 +22,21 @@ double norm(const Voigt& s) { return std::sqrt(s.dot(strain_like(s))); }
 
 }  // namespace
 
+DruckerPragerParameters drucker_prager_parameters(double density, double youngs_modulus, double poisson_ratio,
+                                                  double friction_angle_deg, double dilatancy_angle_deg,
+                                                  double cohesion, double hardening_modulus, MohrCoulombMatch match) {
+  DruckerPragerParameters p;
+  p.density = density;
+  p.youngs_modulus = youngs_modulus;
+  p.poisson_ratio = poisson_ratio;
+  p.friction_angle = friction_angle_deg * M_PI / 180.0;
+  p.dilatancy_angle = dilatancy_angle_deg * M_PI / 180.0;
+  p.cohesion = cohesion;
+  p.hardening_modulus = hardening_modulus;
+  p.match = match;
+  return p;
+}
+
 void drucker_prager_coefficients(MohrCoulombMatch match, double angle, double& eta, double& xi) {
   const double s = std::sin(angle), c = std::cos(angle), t = std::tan(angle);
   switch (match) {
@@ -51,27 +66,24 @@ DruckerPrager::DruckerPrager(const DruckerPragerParameters& p)
 }
 
 std::unique_ptr<Material> DruckerPrager::from_yaml(YamlSection& y) {
-  DruckerPragerParameters p;
-  p.density = y.positive("density", y.real("density"));
-  p.youngs_modulus = y.positive("youngs_modulus", y.real("youngs_modulus"));
-  p.poisson_ratio = y.real("poisson_ratio");
-  if (!(p.poisson_ratio >= 0.0 && p.poisson_ratio < 0.5))
-    y.fail_value("poisson_ratio", std::to_string(p.poisson_ratio), "must be in [0, 0.5)");
+  const double rho = y.positive("density", y.real("density"));
+  const double E = y.positive("youngs_modulus", y.real("youngs_modulus"));
+  const double nu = y.real("poisson_ratio");
+  if (!(nu >= 0.0 && nu < 0.5)) y.fail_value("poisson_ratio", std::to_string(nu), "must be in [0, 0.5)");
   const double phi = y.real("friction_angle");
   if (!(phi > 0.0 && phi < 90.0)) y.fail_value("friction_angle", std::to_string(phi), "must be in (0, 90) degrees");
   const double psi = y.real("dilatancy_angle", 0.0);
   if (!(psi >= 0.0 && psi <= phi))
     y.fail_value("dilatancy_angle", std::to_string(psi), "must be in [0, friction_angle] degrees");
-  p.cohesion = y.real("cohesion", 0.0);
-  if (p.cohesion < 0) y.fail_value("cohesion", std::to_string(p.cohesion), "must be >= 0");
-  p.hardening_modulus = y.real("hardening_modulus", 0.0);
+  const double c = y.real("cohesion", 0.0);
+  if (c < 0) y.fail_value("cohesion", std::to_string(c), "must be >= 0");
+  const double H = y.real("hardening_modulus", 0.0);
   const std::string match = y.choice("mohr_coulomb_match", {"outer", "inner", "plane_strain"}, "plane_strain");
-  p.match = match == "outer" ? MohrCoulombMatch::outer
-            : match == "inner" ? MohrCoulombMatch::inner
-                               : MohrCoulombMatch::plane_strain;
-  p.friction_angle = phi * M_PI / 180.0;
-  p.dilatancy_angle = psi * M_PI / 180.0;
-  return std::make_unique<DruckerPrager>(p);
+  return std::make_unique<DruckerPrager>(drucker_prager_parameters(
+      rho, E, nu, phi, psi, c, H,
+      match == "outer"   ? MohrCoulombMatch::outer
+      : match == "inner" ? MohrCoulombMatch::inner
+                         : MohrCoulombMatch::plane_strain));
 }
 
 double DruckerPrager::yield_function(const Voigt& stress, double alpha) const {

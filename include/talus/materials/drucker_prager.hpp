@@ -27,6 +27,12 @@ struct DruckerPragerParameters {
   MohrCoulombMatch match = MohrCoulombMatch::plane_strain;
 };
 
+// Parameters with the angles in degrees, as in the case file.
+DruckerPragerParameters drucker_prager_parameters(double density, double youngs_modulus, double poisson_ratio,
+                                                  double friction_angle_deg, double dilatancy_angle_deg,
+                                                  double cohesion, double hardening_modulus = 0.0,
+                                                  MohrCoulombMatch match = MohrCoulombMatch::plane_strain);
+
 // eta, xi (or eta_bar with the dilatancy angle) of the Drucker-Prager cone
 // matching Mohr-Coulomb (de Souza Neto, Peric & Owen 2008, Sec. 6.4.6).
 void drucker_prager_coefficients(MohrCoulombMatch match, double angle, double& eta, double& xi);
