@@ -39,7 +39,6 @@ class Simulation {
   double time() const { return time_; }
   const Grid<dim>& grid() const { return *grid_; }
   Particles<dim>& particles() { return *particles_; }
-  const CaseConfig& config() const { return config_; }
 
   // Introspection of the last step's system (tests and benchmarks).
   PetscInt last_system_size() const { return last_system_size_; }

@@ -102,13 +102,6 @@ Vector<dim> Grid<dim>::point_position(const std::array<int, dim>& ijk) const {
 }
 
 template <int dim>
-bool Grid<dim>::contains(const Vector<dim>& x) const {
-  for (int a = 0; a < dim; ++a)
-    if (!(x[a] >= lower_[a] && x[a] <= upper_[a])) return false;
-  return true;
-}
-
-template <int dim>
 PetscMPIInt Grid<dim>::owner_rank(const Vector<dim>& x) const {
   // PETSc's DMDA point location gives DMDA cell k (between points k and k+1)
   // to the rank that owns point k+1; we follow the same rule.

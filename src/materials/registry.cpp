@@ -27,7 +27,11 @@ std::vector<std::string> material_models() {
 
 std::unique_ptr<Material> make_material(const std::string& model, YamlSection& parameters) {
   const auto it = registry().find(model);
-  if (it == registry().end()) parameters.fail_value("model", model, "is not a known material model");
+  if (it == registry().end()) {
+    std::string known;
+    for (const auto& name : material_models()) known += (known.empty() ? "" : ", ") + name;
+    parameters.fail_value("model", model, "is not a known material model (known: " + known + ")");
+  }
   return it->second(parameters);
 }
 

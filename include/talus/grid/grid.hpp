@@ -48,7 +48,6 @@ class Grid {
 
   Vector<dim> point_position(const std::array<int, dim>& ijk) const;  // Greville point
   PetscMPIInt owner_rank(const Vector<dim>& x) const;
-  bool contains(const Vector<dim>& x) const;
 
   // Shape-function stencil of a particle, with ghosted local indices filled in.
   void stencil(const Vector<dim>& x, Stencil<dim>& st) const;

@@ -24,7 +24,6 @@ class VtkSeries {
 
   // Writes the particle fields; returns the .pvtu path.
   std::string write(const Particles<dim>& particles, double time);
-  const std::string& pvd_path() const { return pvd_; }
 
  private:
   void write_pvd() const;
