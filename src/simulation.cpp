@@ -102,10 +102,11 @@ StepReport Simulation<dim>::advance(double h) {
   {
     DM sw = particles_->swarm();
     FieldView<PetscReal> s(sw, field::stress), state(sw, field::material_state),
-        plastic(sw, field::cumulative_plastic_strain);
+        plastic(sw, field::cumulative_plastic_strain), separation(sw, field::separation_strain);
     const auto& end = system.end_stress();
     const auto& dep = system.plastic_strain_increment();
     std::copy(system.end_state().begin(), system.end_state().end(), state.data());
+    std::copy(system.end_separation().begin(), system.end_separation().end(), separation.data());
     for (std::size_t p = 0; p < end.size(); ++p) {
       Eigen::Map<Voigt>(s.data() + 6 * p) = end[p];
       // Equivalent plastic strain increment sqrt(2/3 d_eps_p : d_eps_p) (engineering shears halved).

@@ -148,6 +148,8 @@ TEST_CASE("Drucker-Prager with psi = 0: hydrostatic tension far beyond the apex 
   // All the stretch beyond the apex pressure is plastic (volumetric opening).
   CHECK(u.plastic_strain_increment.head<3>().sum() ==
         Approx(3e-2 - apex / m.bulk_modulus()).epsilon(1e-12));
+  // ... and all of it is separation: a void, not dilatancy of the solid.
+  CHECK(u.separation_strain_increment == Approx(3e-2 - apex / m.bulk_modulus()).epsilon(1e-12));
 }
 
 TEST_CASE("Drucker-Prager: cone and apex regions partition the trial states", "[plasticity]") {
@@ -164,6 +166,10 @@ TEST_CASE("Drucker-Prager: cone and apex regions partition the trial states", "[
       const double margin = p_tr - m.xi() * 1e4 / m.eta() - m.bulk_modulus() * m.eta_bar() * sqrt_j2 / m.shear_modulus();
       if (std::abs(margin) < 1e-6 * (std::abs(p_tr) + sqrt_j2) || branch_of(u) == Branch::elastic) continue;
       CHECK((branch_of(u) == Branch::apex) == (margin > 0));
+      // Only the apex separates; on the cone the volume change is dilatancy.
+      if (branch_of(u) == Branch::cone) CHECK(u.separation_strain_increment == 0.0);
+      if (branch_of(u) == Branch::apex)
+        CHECK(u.separation_strain_increment == Approx(u.plastic_strain_increment.head<3>().sum()).epsilon(1e-12));
     }
   }
 }

@@ -49,7 +49,7 @@ std::string VtkSeries<dim>::write(const Particles<dim>& particles, double time) 
   DM sw = particles.swarm();
   FieldView<PetscReal> x(sw, field::position), v(sw, field::velocity), u(sw, field::displacement),
       s(sw, field::stress), m(sw, field::mass), v0(sw, field::initial_volume), F(sw, field::deformation_gradient),
-      eps_p(sw, field::cumulative_plastic_strain);
+      eps_p(sw, field::cumulative_plastic_strain), sep(sw, field::separation_strain);
   FieldView<PetscInt> mat(sw, field::material_id), body(sw, field::body_id);
   FieldView<std::int64_t> pid(sw, field::particle_id);
 
@@ -76,7 +76,8 @@ std::string VtkSeries<dim>::write(const Particles<dim>& particles, double time) 
   stress->SetNumberOfComponents(6);  // ParaView's symmetric tensor order: XX YY ZZ XY YZ XZ
   stress->SetNumberOfTuples(n);
   auto p_arr = scalar("mean_stress"), q_arr = scalar("deviatoric_stress"), mass = scalar("mass"),
-       volume = scalar("volume"), plastic = scalar("cumulative_plastic_strain");
+       volume = scalar("volume"), plastic = scalar("cumulative_plastic_strain"),
+       separation = scalar("separation_strain");
   vtkNew<vtkIntArray> material, body_id;
   material->SetName("material_id");
   material->SetNumberOfTuples(n);
@@ -98,15 +99,17 @@ std::string VtkSeries<dim>::write(const Particles<dim>& particles, double time) 
     cells->InsertNextCell(1, &id);
     velocity->SetTuple(p, vp);
     displacement->SetTuple(p, up);
-    const Voigt sv = Eigen::Map<const Voigt>(s.data() + 6 * p);
+    const Eigen::Map<const Eigen::Matrix<double, dim, dim, Eigen::RowMajor>> Fp(F.data() + dim * dim * p);
+    const double J = Fp.determinant();
+    const Voigt sv = Eigen::Map<const Voigt>(s.data() + 6 * p) / J;  // Cauchy sigma = tau / J
     const double t[6] = {sv[0], sv[1], sv[2], sv[5], sv[3], sv[4]};
     stress->SetTuple(p, t);
     p_arr->SetValue(p, mean_stress(sv));
     q_arr->SetValue(p, deviatoric_stress(sv));
     mass->SetValue(p, m[p]);
-    const Eigen::Map<const Eigen::Matrix<double, dim, dim, Eigen::RowMajor>> Fp(F.data() + dim * dim * p);
-    volume->SetValue(p, v0[p] * Fp.determinant());
+    volume->SetValue(p, v0[p] * J);
     plastic->SetValue(p, eps_p[p]);
+    separation->SetValue(p, sep[p]);
     material->SetValue(p, mat[p]);
     body_id->SetValue(p, body[p]);
     ids->SetValue(p, pid[p]);
@@ -116,7 +119,7 @@ std::string VtkSeries<dim>::write(const Particles<dim>& particles, double time) 
   ug->SetCells(VTK_VERTEX, cells);
   vtkPointData* pd = ug->GetPointData();
   for (vtkDataArray* a : std::initializer_list<vtkDataArray*>{velocity, displacement, stress, p_arr, q_arr, mass,
-                                                                volume, plastic, material, body_id, ids})
+                                                                volume, plastic, separation, material, body_id, ids})
     pd->AddArray(a);
   pd->SetActiveVectors("velocity");
 

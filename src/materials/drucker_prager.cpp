@@ -1,5 +1,6 @@
 #include "talus/materials/drucker_prager.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "talus/io/yaml_section.hpp"
@@ -123,6 +124,7 @@ void DruckerPrager::return_map(const Voigt& rotated_stress, const Voigt& strain_
     out.tangent = stiffness_;
     out.trial_sensitivity.setIdentity();
     out.plastic_strain_increment.setZero();
+    out.separation_strain_increment = 0.0;
     *alpha_new = alpha_n;
     return;
   }
@@ -158,6 +160,16 @@ void DruckerPrager::return_map(const Voigt& rotated_stress, const Voigt& strain_
   out.trial_sensitivity = S;
   out.tangent = S * stiffness_;
   out.plastic_strain_increment = compliance_ * (trial - out.stress);
+  out.separation_strain_increment = 0.0;
+  if (sqrt_j2 - G * dgamma < 0.0) {
+    // At the apex the volume opened beyond the flow rule's dilatancy,
+    // tr d_eps_p - sqrt(2) eta_bar |dev d_eps_p|, is separation (a void).
+    const Voigt& e = out.plastic_strain_increment;
+    const double tr = e.head<3>().sum();
+    Voigt dev = e;
+    dev.head<3>().array() -= tr / 3.0;
+    out.separation_strain_increment = std::max(0.0, tr);
+  }
 }
 
 }  // namespace talus

@@ -23,6 +23,7 @@ Particles<dim>::Particles(const Grid<dim>& grid) {
   TALUS_PETSC(DMSwarmRegisterPetscDatatypeField(swarm_, field::stress, 6, PETSC_REAL));
   TALUS_PETSC(DMSwarmRegisterPetscDatatypeField(swarm_, field::material_state, max_state_size, PETSC_REAL));
   TALUS_PETSC(DMSwarmRegisterPetscDatatypeField(swarm_, field::cumulative_plastic_strain, 1, PETSC_REAL));
+  TALUS_PETSC(DMSwarmRegisterPetscDatatypeField(swarm_, field::separation_strain, 1, PETSC_REAL));
   TALUS_PETSC(DMSwarmRegisterPetscDatatypeField(swarm_, field::material_id, 1, PETSC_INT));
   TALUS_PETSC(DMSwarmRegisterPetscDatatypeField(swarm_, field::body_id, 1, PETSC_INT));
   TALUS_PETSC(DMSwarmRegisterPetscDatatypeField(swarm_, field::particle_id, 1, PETSC_INT64));

@@ -43,7 +43,7 @@ std::int64_t seed_box_body(Particles<dim>& particles, const Grid<dim>& grid, con
   FieldView<PetscReal> pos(sw, field::position), vel(sw, field::velocity), aff(sw, field::affine_velocity),
       disp(sw, field::displacement), mass(sw, field::mass), vol0(sw, field::initial_volume),
       defgrad(sw, field::deformation_gradient), stress(sw, field::stress), state(sw, field::material_state),
-      plastic(sw, field::cumulative_plastic_strain);
+      plastic(sw, field::cumulative_plastic_strain), separation(sw, field::separation_strain);
   FieldView<PetscInt> mat(sw, field::material_id), bid(sw, field::body_id);
   FieldView<std::int64_t> pid(sw, field::particle_id);
   const double volume = std::pow(spacing, dim);
@@ -63,6 +63,7 @@ std::int64_t seed_box_body(Particles<dim>& particles, const Grid<dim>& grid, con
     for (int i = 0; i < 6; ++i) stress[6 * p + i] = 0.0;
     for (int i = 0; i < max_state_size; ++i) state[max_state_size * p + i] = 0.0;
     plastic[p] = 0.0;
+    separation[p] = 0.0;
     mass[p] = material.density() * volume;
     vol0[p] = volume;
     mat[p] = body.material;

@@ -20,18 +20,24 @@ MomentumSystem<dim>::MomentumSystem(const Grid<dim>& grid, const Particles<dim>&
       theta_(theta) {
   const PetscInt np = particles.local_count();
   DM sw = particles.swarm();
-  FieldView<PetscReal> s(sw, field::stress), v0(sw, field::initial_volume), F(sw, field::deformation_gradient);
+  FieldView<PetscReal> s(sw, field::stress), v0(sw, field::initial_volume);
   FieldView<PetscInt> mat(sw, field::material_id);
-  FieldView<PetscReal> state(sw, field::material_state);
+  FieldView<PetscReal> state(sw, field::material_state), separation(sw, field::separation_strain);
   state_old_.assign(state.data(), state.data() + static_cast<std::size_t>(max_state_size) * np);
   state_end_ = state_old_;
   stress_old_.resize(np);
-  volume_.resize(np);
+  reference_volume_.resize(np);
+  separation_old_.assign(separation.data(), separation.data() + np);
+  separation_end_ = separation_old_;
   material_.resize(np);
   for (PetscInt p = 0; p < np; ++p) {
     stress_old_[p] = Eigen::Map<const Voigt>(s.data() + 6 * p);
-    const Eigen::Map<const Eigen::Matrix<double, dim, dim, Eigen::RowMajor>> Fp(F.data() + dim * dim * p);
-    volume_[p] = v0[p] * Fp.determinant();  // current volume: the step works on the configuration at t^n
+    // The step works on the configuration at t^n (gradients at x^n).
+    // The stored stress is the Kirchhoff stress tau = J sigma, so the
+    // internal force V sigma grad N = V0 tau grad N needs only the initial
+    // volume (docs/formulation.md). Volume opened by plastic dilatancy or at
+    // the apex then never scales the stiffness of a particle.
+    reference_volume_[p] = v0[p];
     material_[p] = mat[p];
   }
   stress_end_ = stress_old_;
@@ -88,8 +94,22 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
     Voigt strain;
     strain << h_ * L3(0, 0), h_ * L3(1, 1), h_ * L3(2, 2), h_ * (L3(1, 2) + L3(2, 1)), h_ * (L3(0, 2) + L3(2, 0)),
         h_ * (L3(0, 1) + L3(1, 0));
+    // Compression first closes the voids of a separated particle, stress
+    // free: the volumetric strain d = max(tr d_eps, -s^n) (when negative) is
+    // taken off the increment the solid sees (docs/plasticity.md).
+    const double volumetric = strain[0] + strain[1] + strain[2];
+    const bool closing = separation_old_[p] > 0.0 && volumetric < 0.0;
+    const bool closes_fully = closing && volumetric <= -separation_old_[p];
+    const double closed = !closing ? 0.0 : closes_fully ? -separation_old_[p] : volumetric;
+    strain.head<3>().array() -= closed / 3.0;
     materials_[material_[p]]->update(rotated, strain, state_old_.data() + max_state_size * p,
                                      state_end_.data() + max_state_size * p, update);
+    separation_end_[p] = separation_old_[p] + closed + update.separation_strain_increment;
+    if (closing && !closes_fully) {
+      // d(strain seen)/d(strain) = I - (1/3) 1 1^T on the volumetric part.
+      const Voigt volumetric_column = update.tangent.leftCols<3>().rowwise().sum() / 3.0;
+      for (int j = 0; j < 3; ++j) update.tangent.col(j) -= volumetric_column;
+    }
     stress_end_[p] = update.stress;
     plastic_increment_[p] = update.plastic_strain_increment;
 
@@ -114,7 +134,7 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
     const Matrix<dim> s_dim = sigma.template topLeftCorner<dim, dim>();
     for (int k = 0; k < st.count; ++k) {
       Eigen::Map<Vector<dim>> f(force_.data() + static_cast<std::size_t>(dim) * st.local[k]);
-      f += volume_[p] * (s_dim * st.gradient[k]);
+      f += reference_volume_[p] * (s_dim * st.gradient[k]);
     }
   }
   if (!evaluated_at_) TALUS_PETSC(VecDuplicate(v, &evaluated_at_));
@@ -183,7 +203,7 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
         G.col(k).setZero();
         for (int l = 0; l < dim; ++l) G.col(k) += A.col(k * dim + l) * st.gradient[b][l];
       }
-      G *= scale * volume_[p];
+      G *= scale * reference_volume_[p];
       for (int a = 0; a < st.count; ++a) {
         const int sa = slot[st.local[a]];
         if (sa < 0) continue;

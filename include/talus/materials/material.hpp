@@ -22,6 +22,11 @@ struct MaterialPointUpdate {
   Tangent tangent;                  // d stress / d strain_increment
   Tangent trial_sensitivity;        // d stress / d rotated_stress
   Voigt plastic_strain_increment;   // engineering shear; zero for elastic steps
+  // Volumetric strain opened at the apex beyond the flow rule's dilatancy:
+  // the material separates there (a void, like a contact gap). The step
+  // removes it from the particle's quadrature volume and closes it, stress
+  // free, before any later compression loads the solid (docs/plasticity.md).
+  double separation_strain_increment = 0.0;
 };
 
 inline constexpr int max_state_size = 2;

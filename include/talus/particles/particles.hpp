@@ -22,9 +22,14 @@ inline constexpr const char* displacement = "displacement";         // dim
 inline constexpr const char* mass = "mass";                         // 1
 inline constexpr const char* initial_volume = "initial_volume";     // 1
 inline constexpr const char* deformation_gradient = "deformation_gradient";  // dim x dim, row-major
-inline constexpr const char* stress = "stress";                     // 6, Voigt, tension positive
+// Kirchhoff stress tau = J sigma (Voigt, tension positive): the internal
+// force is V0 tau grad N. The VTK output converts it to Cauchy stress.
+inline constexpr const char* stress = "stress";                     // 6
 inline constexpr const char* material_state = "material_state";     // max_state_size internal variables
 inline constexpr const char* cumulative_plastic_strain = "cumulative_plastic_strain";  // 1
+// Volumetric (logarithmic) strain of the voids opened where the material
+// separated at the yield surface's apex; not part of the solid's volume.
+inline constexpr const char* separation_strain = "separation_strain";  // 1
 inline constexpr const char* material_id = "material_id";           // int
 inline constexpr const char* body_id = "body_id";                   // int
 inline constexpr const char* particle_id = "particle_id";           // int64, global and unique

@@ -49,6 +49,7 @@ class MomentumSystem {
   const std::vector<Voigt>& end_stress() const { return stress_end_; }
   const std::vector<double>& end_state() const { return state_end_; }  // max_state_size per particle
   const std::vector<Voigt>& plastic_strain_increment() const { return plastic_increment_; }
+  const std::vector<double>& end_separation() const { return separation_end_; }
 
  private:
   void evaluate_particles(Vec v);
@@ -64,14 +65,15 @@ class MomentumSystem {
 
   // Committed particle state at the start of the step (frozen during Newton).
   std::vector<Voigt> stress_old_;
-  std::vector<double> volume_;
+  std::vector<double> reference_volume_;  // V0: the stress is Kirchhoff's, tau = J sigma
+  std::vector<double> separation_old_;
   std::vector<int> material_;
   std::vector<double> state_old_;  // internal variables, max_state_size per particle
 
   // Results of the last evaluation.
   std::vector<double> velocity_, velocity_old_, force_;
   std::vector<Voigt> stress_end_, plastic_increment_;
-  std::vector<double> state_end_;
+  std::vector<double> state_end_, separation_end_;
   std::vector<StressTangent> tangent_;
   Vec evaluated_at_ = nullptr;  // the v of the last evaluation
 };
