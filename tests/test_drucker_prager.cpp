@@ -168,8 +168,17 @@ TEST_CASE("Drucker-Prager: cone and apex regions partition the trial states", "[
       CHECK((branch_of(u) == Branch::apex) == (margin > 0));
       // Only the apex separates; on the cone the volume change is dilatancy.
       if (branch_of(u) == Branch::cone) CHECK(u.separation_strain_increment == 0.0);
-      if (branch_of(u) == Branch::apex)
-        CHECK(u.separation_strain_increment == Approx(u.plastic_strain_increment.head<3>().sum()).epsilon(1e-12));
+      if (branch_of(u) == Branch::apex) {
+        // tr d_eps_p - sqrt(2) eta_bar |dev d_eps_p|: the opening beyond the flow rule's dilatancy.
+        const Voigt& e = u.plastic_strain_increment;
+        const double tr = e.head<3>().sum();
+        Voigt dev = e;
+        dev.head<3>().array() -= tr / 3.0;
+        const double dev_norm = std::sqrt(dev.head<3>().squaredNorm() + 0.5 * dev.tail<3>().squaredNorm());
+        CHECK(u.separation_strain_increment ==
+              Approx(tr - std::sqrt(2.0) * m.eta_bar() * dev_norm).epsilon(1e-9).margin(1e-15));
+        CHECK(u.separation_strain_increment >= 0.0);
+      }
     }
   }
 }

@@ -168,7 +168,8 @@ void DruckerPrager::return_map(const Voigt& rotated_stress, const Voigt& strain_
     const double tr = e.head<3>().sum();
     Voigt dev = e;
     dev.head<3>().array() -= tr / 3.0;
-    out.separation_strain_increment = std::max(0.0, tr);
+    const double dev_norm = std::sqrt(dev.head<3>().squaredNorm() + 0.5 * dev.tail<3>().squaredNorm());
+    out.separation_strain_increment = std::max(0.0, tr - std::sqrt(2.0) * eta_bar_ * dev_norm);
   }
 }
 

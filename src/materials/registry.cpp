@@ -5,6 +5,7 @@
 #include "talus/io/yaml_section.hpp"
 #include "talus/materials/drucker_prager.hpp"
 #include "talus/materials/linear_elastic.hpp"
+#include "talus/materials/mohr_coulomb.hpp"
 
 namespace talus {
 
@@ -14,6 +15,7 @@ const std::map<std::string, Factory>& registry() {
   static const std::map<std::string, Factory> models = {
       {"linear_elastic", &LinearElastic::from_yaml},
       {"drucker_prager", &DruckerPrager::from_yaml},
+      {"mohr_coulomb", &MohrCoulomb::from_yaml},
   };
   return models;
 }
