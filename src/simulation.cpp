@@ -210,6 +210,7 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
       continue;
     }
     ++summary.steps;
+    summary.max_step_newton_iterations = std::max<long>(summary.max_step_newton_iterations, r.newton.iterations);
     // After a cut-back, h grows back (x2 every 3 successful steps) to the nominal step.
     if (h < tc.step && ++calm_steps >= 3) {
       h = std::min(tc.step, 2.0 * h);

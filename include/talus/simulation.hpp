@@ -21,6 +21,7 @@ struct StepReport {
 
 struct RunSummary {
   long steps = 0, cutbacks = 0, newton_iterations = 0, linear_iterations = 0, outputs = 0;
+  long max_step_newton_iterations = 0;  // over the accepted steps (totals include failed attempts)
   double wall_seconds = 0, transfer_seconds = 0, solve_seconds = 0;
 };
 

@@ -49,6 +49,7 @@ int run_case(const talus::CaseConfig& config, int rank) {
     std::cout << std::setprecision(6) << "talus-summary: {\"dim\": " << dim
               << ", \"particles\": " << particles << ", \"steps\": " << s.steps
               << ", \"cutbacks\": " << s.cutbacks << ", \"newton_iterations\": " << s.newton_iterations
+              << ", \"max_step_newton_iterations\": " << s.max_step_newton_iterations
               << ", \"linear_iterations\": " << s.linear_iterations << ", \"wall_seconds\": " << s.wall_seconds
               << ", \"transfer_seconds\": " << s.transfer_seconds << ", \"solve_seconds\": " << s.solve_seconds
               << ", \"peak_rss_mb\": " << max_rss_mb << "}\n";
