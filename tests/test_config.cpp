@@ -3,6 +3,7 @@
 #include <catch2/catch.hpp>
 
 #include "talus/io/config.hpp"
+#include "talus/simulation.hpp"
 #include "test_support.hpp"
 
 using namespace talus;
@@ -89,6 +90,19 @@ TEST_CASE("malformed cases name the key, the value and the line", "[config]") {
        "case.yaml:10: materials[0].friction_angle = 95"},
       {replace(valid, "model: linear_elastic", "model: drucker_prager\n    friction_angle: 30\n    cohesion: -5"),
        "materials[0].cohesion = -5"},
+      {replace(valid, "box: {lower: [0.5, 0], upper: [1.0, 0.5]}", "polygon: [[0.5, 0], [1.0, 0], [1.0, 0.5], [0.5, 0.5]]\n    box: {lower: [0.5, 0], upper: [1.0, 0.5]}"),
+       "bodies[0].box: give either box or polygon, not both"},
+      {replace(valid, "    box: {lower: [0.5, 0], upper: [1.0, 0.5]}\n", ""), "case.yaml:14: bodies[0].box: is required (or polygon, in 2D)"},
+      {replace(valid, "box: {lower: [0.5, 0], upper: [1.0, 0.5]}", "polygon: [[0.5, 0], [1.0, 0]]"),
+       "case.yaml:16: bodies[0].polygon: needs at least 3 vertices"},
+      {replace(valid, "box: {lower: [0.5, 0], upper: [1.0, 0.5]}", "polygon: [[0.5, 0], [1.0, 0], [0.5, 0.5], [1.0, 0.5]]"),
+       "bodies[0].polygon: edges 1 and 3 cross"},
+      {replace(valid, "box: {lower: [0.5, 0], upper: [1.0, 0.5]}", "polygon: [[0.5, 0], [2.5, 0], [1.0, 0.5]]"),
+       "bodies[0].polygon: vertex 1 lies outside the grid box"},
+      {replace(valid, "box: {lower: [0.5, 0], upper: [1.0, 0.5]}", "polygon: [[0.5, 0], [1.0, 0], [1.5, 0]]"),
+       "bodies[0].polygon: has zero area"},
+      {replace(valid, "box: {lower: [0.5, 0], upper: [1.0, 0.5]}", "polygon: [[0.5, 0], [1.0, x], [1.0, 0.5]]"),
+       "case.yaml:16: bodies[0].polygon[1] = [1.0, x]: entry 'x' is not a finite number"},
       {"grid: [1, 2\n", "case.yaml:2: YAML syntax error"},
       {"", "the case file must be a YAML map"},
   };
@@ -101,4 +115,36 @@ TEST_CASE("malformed cases name the key, the value and the line", "[config]") {
 
 TEST_CASE("a missing case file is an input error", "[config]") {
   CHECK_THROWS_AS(load_case("/nonexistent/case.yaml"), InputError);
+}
+
+TEST_CASE("a polygon body is filled with exactly the lattice points inside it", "[config][seeding]") {
+  // A slope profile: toe at x = 0.2, crest at (1.0, 0.6), 0.6 m high. The
+  // lattice spacing is 0.05 (cell 0.1, 2 per cell), so no lattice point lies
+  // on an edge and "inside" is unambiguous.
+  const std::string yaml = replace(valid, "box: {lower: [0.5, 0], upper: [1.0, 0.5]}",
+                                   "polygon: [[0.2, 0], [1.9, 0], [1.9, 0.6], [1.0, 0.6]]");
+  const CaseConfig config = testing::case_from_yaml(yaml);
+  REQUIRE(config.bodies[0].polygon.size() == 4);
+  CHECK(config.bodies[0].box_lower == std::vector<double>{0.2, 0.0});
+  CHECK(config.bodies[0].box_upper == std::vector<double>{1.9, 0.6});
+  Simulation<2> sim(config, PETSC_COMM_WORLD);
+  const std::vector<double> x = testing::gather_by_id(sim.particles(), field::position, 2);
+  const std::vector<double> mass = testing::gather_by_id(sim.particles(), field::mass, 1);
+  // Brute force over the lattice: the trapezoid is y >= 0, y <= 0.6, x <= 1.9
+  // and left of the slope line through (0.2, 0) and (1.0, 0.6).
+  long expected = 0;
+  for (int i = 0; i < 40; ++i)
+    for (int j = 0; j < 20; ++j) {
+      const double px = 0.025 + 0.05 * i, py = 0.025 + 0.05 * j;
+      expected += py < 0.6 && px < 1.9 && py < 0.75 * (px - 0.2);
+    }
+  CHECK(static_cast<long>(mass.size()) == expected);
+  for (std::size_t p = 0; p < mass.size(); ++p) {
+    CHECK(x[2 * p + 1] < 0.75 * (x[2 * p] - 0.2));
+    CHECK(mass[p] == Approx(2000 * 0.05 * 0.05).epsilon(1e-14));
+  }
+  // The seeded area approaches the trapezoid's, 0.78 m^2, to within the
+  // lattice resolution along the inclined edge (1 m long, spacing 0.05).
+  const double area = 0.5 * (1.7 + 0.9) * 0.6;
+  CHECK(std::abs(mass.size() * 0.05 * 0.05 - area) <= 0.5 * 1.0 * 0.05);
 }

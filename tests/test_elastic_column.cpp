@@ -47,15 +47,19 @@ ColumnError settle_column(int cells_over_height, const std::string& shape) {
   for (int n = 0; n < 4; ++n) REQUIRE(sim.advance(0.5).converged);
   const auto x = testing::gather_by_id(sim.particles(), field::position, dim);
   const auto u = testing::gather_by_id(sim.particles(), field::displacement, dim);
-  const auto s = testing::gather_by_id(sim.particles(), field::stress, 6);
-  const std::size_t n = s.size() / 6;
+  const auto tau = testing::gather_by_id(sim.particles(), field::stress, 6);
+  const auto F = testing::gather_by_id(sim.particles(), field::deformation_gradient, dim * dim);
+  const std::size_t n = tau.size() / 6;
   const int vertical = dim - 1;  // Voigt index of sigma_yy (2D) or sigma_zz (3D)
   double ev = 0, eh = 0;
   for (std::size_t p = 0; p < n; ++p) {
     const double y0 = x[dim * p + vertical] - u[dim * p + vertical];  // initial height of the particle
     const double exact = -rho * g * (H - y0);
-    ev += std::pow(s[6 * p + vertical] - exact, 2);
-    eh += std::pow(s[6 * p + 0] - nu / (1 - nu) * exact, 2);
+    // The stored stress is Kirchhoff's; the lithostatic solution is Cauchy's.
+    const Eigen::Map<const Eigen::Matrix<double, dim, dim, Eigen::RowMajor>> Fp(F.data() + dim * dim * p);
+    const double J = Fp.determinant();
+    ev += std::pow(tau[6 * p + vertical] / J - exact, 2);
+    eh += std::pow(tau[6 * p + 0] / J - nu / (1 - nu) * exact, 2);
   }
   const double scale = rho * g * H;
   return {std::sqrt(ev / n) / scale, std::sqrt(eh / n) / scale};

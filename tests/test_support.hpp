@@ -42,9 +42,13 @@ std::vector<double> gather_by_id(Particles<dim>& particles, const char* name, in
   for (int r = 0; r < size; ++r) counts[r] *= block, displs[r] *= block;
   std::vector<double> all(static_cast<std::size_t>(total) * block);
   MPI_Allgatherv(local.data(), count * block, MPI_DOUBLE, all.data(), counts.data(), displs.data(), MPI_DOUBLE, comm);
+  // Ids are unique but need not be contiguous (polygon bodies skip lattice points).
+  std::vector<int> order(total);
+  for (int k = 0; k < total; ++k) order[k] = k;
+  std::sort(order.begin(), order.end(), [&](int a, int b) { return all_ids[a] < all_ids[b]; });
   std::vector<double> ordered(all.size());
   for (int k = 0; k < total; ++k)
-    for (int b = 0; b < block; ++b) ordered[static_cast<std::size_t>(all_ids[k]) * block + b] = all[k * block + b];
+    for (int b = 0; b < block; ++b) ordered[static_cast<std::size_t>(k) * block + b] = all[order[k] * block + b];
   return ordered;
 }
 

@@ -148,6 +148,31 @@ std::vector<double> YamlSection::reals(const std::string& key, int length) {
   return out;
 }
 
+std::vector<std::vector<double>> YamlSection::points(const std::string& key, int dim) {
+  YAML::Node c = child(key, "a list of points");
+  if (!c.IsSequence() || c.size() == 0) fail_value(key, scalar_text(c), "must be a non-empty list of points");
+  std::vector<std::vector<double>> out;
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    const YAML::Node& point = c[i];
+    const std::string where = key_path(key) + "[" + std::to_string(i) + "]";
+    const auto bad = [&](const std::string& message) {
+      throw InputError(file_ + ":" + std::to_string(point.Mark().line + 1) + ": " + where + " = " +
+                       scalar_text(point) + ": " + message);
+    };
+    if (!point.IsSequence() || static_cast<int>(point.size()) != dim)
+      bad("must be a point of " + std::to_string(dim) + " numbers");
+    std::vector<double> x;
+    for (const auto& e : point) {
+      double v = 0;
+      if (!e.IsScalar() || !YAML::convert<double>::decode(e, v) || !std::isfinite(v))
+        bad("entry '" + scalar_text(e) + "' is not a finite number");
+      x.push_back(v);
+    }
+    out.push_back(x);
+  }
+  return out;
+}
+
 YamlSection YamlSection::section(const std::string& key) {
   YAML::Node c = child(key, "a map");
   if (!c.IsMap()) fail_value(key, scalar_text(c), "must be a map of keys");
@@ -276,15 +301,58 @@ CaseConfig parse_root(YamlSection& root) {
                                  [&](const MaterialConfig& m) { return m.name == material; });
     if (it == c.materials.end()) b.fail_value("material", material, "names no material in 'materials'");
     bc.material = static_cast<int>(it - c.materials.begin());
-    YamlSection box = b.section("box");
-    bc.box_lower = box.reals("lower", c.dim);
-    bc.box_upper = box.reals("upper", c.dim);
-    for (int a = 0; a < c.dim; ++a) {
-      if (!(bc.box_upper[a] > bc.box_lower[a])) box.fail("upper", "must be above lower on every axis");
-      if (bc.box_lower[a] < c.grid.lower[a]) box.fail("lower", "lies outside the grid box (below grid.lower)");
-      if (bc.box_upper[a] > c.grid.upper[a]) box.fail("upper", "lies outside the grid box (above grid.upper)");
+    if (b.has("box") == b.has("polygon"))
+      b.fail("box", b.has("box") ? "give either box or polygon, not both" : "is required (or polygon, in 2D)");
+    if (b.has("box")) {
+      YamlSection box = b.section("box");
+      bc.box_lower = box.reals("lower", c.dim);
+      bc.box_upper = box.reals("upper", c.dim);
+      for (int a = 0; a < c.dim; ++a) {
+        if (!(bc.box_upper[a] > bc.box_lower[a])) box.fail("upper", "must be above lower on every axis");
+        if (bc.box_lower[a] < c.grid.lower[a]) box.fail("lower", "lies outside the grid box (below grid.lower)");
+        if (bc.box_upper[a] > c.grid.upper[a]) box.fail("upper", "lies outside the grid box (above grid.upper)");
+      }
+      box.finish();
+    } else {
+      if (c.dim != 2) b.fail("polygon", "is a 2D body shape (the grid is 3D)");
+      const auto vertices = b.points("polygon", 2);
+      if (vertices.size() < 3) b.fail("polygon", "needs at least 3 vertices");
+      double area2 = 0.0;
+      bc.box_lower = vertices[0];
+      bc.box_upper = vertices[0];
+      for (std::size_t i = 0; i < vertices.size(); ++i) {
+        const auto& p = vertices[i];
+        const auto& q = vertices[(i + 1) % vertices.size()];
+        area2 += p[0] * q[1] - q[0] * p[1];
+        for (int a = 0; a < 2; ++a) {
+          if (p[a] < c.grid.lower[a] || p[a] > c.grid.upper[a])
+            b.fail("polygon", "vertex " + std::to_string(i) + " lies outside the grid box");
+          bc.box_lower[a] = std::min(bc.box_lower[a], p[a]);
+          bc.box_upper[a] = std::max(bc.box_upper[a], p[a]);
+        }
+        bc.polygon.push_back({p[0], p[1]});
+      }
+      // Edges that cross would make "inside" ambiguous.
+      const std::size_t n = vertices.size();
+      for (std::size_t i = 0; i < n; ++i)
+        for (std::size_t j = i + 2; j < n; ++j) {
+          if (i == 0 && j == n - 1) continue;  // adjacent through the closing edge
+          const auto& a0 = bc.polygon[i];
+          const auto& a1 = bc.polygon[(i + 1) % n];
+          const auto& b0 = bc.polygon[j];
+          const auto& b1 = bc.polygon[(j + 1) % n];
+          const auto cross = [](const std::array<double, 2>& o, const std::array<double, 2>& p,
+                                const std::array<double, 2>& q) {
+            return (p[0] - o[0]) * (q[1] - o[1]) - (p[1] - o[1]) * (q[0] - o[0]);
+          };
+          if (cross(a0, a1, b0) * cross(a0, a1, b1) < 0 && cross(b0, b1, a0) * cross(b0, b1, a1) < 0)
+            b.fail("polygon", "edges " + std::to_string(i) + " and " + std::to_string(j) +
+                                  " cross (the polygon must be simple)");
+        }
+      if (std::abs(area2) <= 1e-12 * (bc.box_upper[0] - bc.box_lower[0]) * (bc.box_upper[1] - bc.box_lower[1]) ||
+          !(bc.box_upper[0] > bc.box_lower[0] && bc.box_upper[1] > bc.box_lower[1]))
+        b.fail("polygon", "has zero area");
     }
-    box.finish();
     bc.particles_per_cell = b.integer("particles_per_cell", 2);
     if (bc.particles_per_cell < 1 || bc.particles_per_cell > 8)
       b.fail_value("particles_per_cell", std::to_string(bc.particles_per_cell), "must be in 1..8 (per axis)");

@@ -5,6 +5,20 @@
 
 namespace talus {
 
+namespace {
+// Crossing-number test with half-open edges, so that a point on an edge shared
+// by two bodies' polygons belongs to exactly one of them.
+bool inside_polygon(const std::vector<std::array<double, 2>>& polygon, double x, double y) {
+  bool inside = false;
+  for (std::size_t i = 0, j = polygon.size() - 1; i < polygon.size(); j = i++) {
+    const auto& a = polygon[i];
+    const auto& b = polygon[j];
+    if ((a[1] > y) != (b[1] > y) && x < a[0] + (y - a[1]) * (b[0] - a[0]) / (b[1] - a[1])) inside = !inside;
+  }
+  return inside;
+}
+}  // namespace
+
 template <int dim>
 std::int64_t seed_box_body(Particles<dim>& particles, const Grid<dim>& grid, const BodyConfig& body,
                            const Material& material, int body_index, std::int64_t first_id) {
@@ -35,6 +49,7 @@ std::int64_t seed_box_body(Particles<dim>& particles, const Grid<dim>& grid, con
       r /= count[a];
       x[a] = grid.lower()[a] + (s[a] + 0.5) * spacing;
     }
+    if (!body.polygon.empty() && !inside_polygon(body.polygon, x[0], x[dim - 1])) continue;
     if (grid.owner_rank(x) == rank) mine.push_back(id);
   }
 

@@ -41,7 +41,10 @@ struct MaterialConfig {
 struct BodyConfig {
   std::string name;
   int material = 0;  // index into CaseConfig::materials
+  // The region filled with particles: a box, or (2D) a simple polygon whose
+  // bounding box is box_lower/box_upper.
   std::vector<double> box_lower, box_upper;
+  std::vector<std::array<double, 2>> polygon;  // vertices in order; empty for a box
   int particles_per_cell = 2;  // per axis
   std::vector<double> velocity;
 };

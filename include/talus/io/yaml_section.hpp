@@ -34,6 +34,8 @@ class YamlSection {
   std::string choice(const std::string& key, const std::vector<std::string>& choices, const std::string& fallback);
   // A list of reals; `length` < 0 accepts any non-empty length.
   std::vector<double> reals(const std::string& key, int length = -1);
+  // A list of points, each a list of `dim` finite numbers: [[x, y], ...].
+  std::vector<std::vector<double>> points(const std::string& key, int dim);
   YamlSection section(const std::string& key);
   std::vector<YamlSection> list(const std::string& key);  // list of maps
   // All entries of a map whose keys are not known in advance (e.g. PETSc options).
