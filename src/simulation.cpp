@@ -1,4 +1,5 @@
 #include "talus/simulation.hpp"
+#include "talus/solver/step_control.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -188,10 +189,9 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
   }
   const double eps = 1e-12 * tc.end;
   double next_output = config_.output.interval > 0 ? config_.output.interval : tc.end;
-  double h = tc.step;
-  long calm_steps = 0;
+  StepController control(tc.step);
   while (time_ < tc.end - eps) {
-    const double h_try = std::min(h, tc.end - time_);
+    const double h_try = std::min(control.step(), tc.end - time_);
     StepReport r = advance(h_try);
     summary.newton_iterations += r.newton.iterations;
     summary.linear_iterations += r.newton.linear_iterations;
@@ -199,8 +199,7 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
     summary.solve_seconds += r.solve_seconds;
     if (!r.converged) {
       ++summary.cutbacks;
-      h *= 0.5;
-      calm_steps = 0;
+      const double h = control.failed();
       if (progress && rank == 0)
         *progress << "  Newton failed (" << r.newton.reason << ") at t = " << time_ << " with h = " << h_try
                   << "; retrying with h = " << h << "\n";
@@ -211,11 +210,7 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
     }
     ++summary.steps;
     summary.max_step_newton_iterations = std::max<long>(summary.max_step_newton_iterations, r.newton.iterations);
-    // After a cut-back, h grows back (x2 every 3 successful steps) to the nominal step.
-    if (h < tc.step && ++calm_steps >= 3) {
-      h = std::min(tc.step, 2.0 * h);
-      calm_steps = 0;
-    }
+    control.succeeded();
     const bool due = time_ >= next_output - eps || time_ >= tc.end - eps;
     if (vtk && due) {
       vtk->write(*particles_, time_);

@@ -1,0 +1,54 @@
+#pragma once
+// Time-step cut-back and regrowth (docs/solver.md, "Failing steps").
+//
+// A failed Newton solve halves h. After `patience` successful steps h doubles
+// again, up to the nominal step. If a step fails soon after a regrowth (within
+// `patience` steps), the grown step was too large for the current phase of
+// the flow: the patience doubles (up to max_patience), so a run does not
+// retry a step that keeps failing every few steps. Once the nominal step has
+// held for 4 x patience steps, the patience relaxes back by halves.
+#include <algorithm>
+
+namespace talus {
+
+class StepController {
+ public:
+  static constexpr long initial_patience = 3, max_patience = 96;
+
+  explicit StepController(double nominal_step) : nominal_(nominal_step), h_(nominal_step) {}
+
+  double step() const { return h_; }
+  long patience() const { return patience_; }
+
+  // The step of size step() failed: halve it. Returns the new step.
+  double failed() {
+    if (since_growth_ <= patience_) patience_ = std::min(2 * patience_, max_patience);
+    h_ *= 0.5;
+    calm_ = 0;
+    since_growth_ = patience_ + 1;  // one back-off per regrowth
+    return h_;
+  }
+
+  // The step of size step() converged.
+  void succeeded() {
+    ++since_growth_;
+    if (h_ < nominal_) {
+      if (++calm_ >= patience_) {
+        h_ = std::min(nominal_, 2.0 * h_);
+        calm_ = 0;
+        since_growth_ = 0;
+      }
+    } else if (since_growth_ > 4 * patience_ && patience_ > initial_patience) {
+      patience_ = std::max(initial_patience, patience_ / 2);
+      since_growth_ = 0;
+    }
+  }
+
+ private:
+  double nominal_, h_;
+  long patience_ = initial_patience;
+  long calm_ = 0;
+  long since_growth_ = 1L << 40;  // no regrowth yet
+};
+
+}  // namespace talus

@@ -1,0 +1,68 @@
+// The cut-back / regrowth controller against a synthetic stiff phase: every
+// step larger than h_crit fails while the phase lasts, then all steps pass.
+#include <catch2/catch.hpp>
+
+#include "talus/solver/step_control.hpp"
+
+using namespace talus;
+
+namespace {
+struct Outcome {
+  long steps = 0, failures = 0, failures_in_second_half = 0;
+  long steps_to_nominal_after_phase = -1;
+};
+
+// Runs `total` accepted steps; steps larger than h_crit fail during the first
+// `phase` accepted steps.
+Outcome drive(double h_crit, long phase, long total) {
+  StepController control(1.0);
+  Outcome o;
+  while (o.steps < total) {
+    const bool stiff = o.steps < phase;
+    if (stiff && control.step() > h_crit) {
+      ++o.failures;
+      if (o.steps >= phase / 2) ++o.failures_in_second_half;
+      control.failed();
+      continue;
+    }
+    control.succeeded();
+    ++o.steps;
+    if (!stiff && o.steps_to_nominal_after_phase < 0 && control.step() == 1.0)
+      o.steps_to_nominal_after_phase = o.steps - phase;
+  }
+  return o;
+}
+}  // namespace
+
+TEST_CASE("step control: a step that keeps failing is not retried every few steps", "[solver]") {
+  // h_crit = 0.3: the largest step that passes is 0.25. A fixed patience of 3
+  // would retry 0.5 every 3 steps: 1000 / 4 = 250 failures in 1000 steps.
+  const Outcome o = drive(0.3, 1000, 1500);
+  INFO("failures " << o.failures << ", in the second half " << o.failures_in_second_half);
+  // Patience doubles 3 -> 96 after each failed regrowth: about log2(32) + 2
+  // failures to get there, then one per 96 + steps (about 10 in the rest).
+  CHECK(o.failures <= 20);
+  CHECK(o.failures_in_second_half <= 6);
+  // Once the stiff phase is over the nominal step comes back within 2 x 96 steps.
+  CHECK(o.steps_to_nominal_after_phase >= 0);
+  CHECK(o.steps_to_nominal_after_phase <= 2 * StepController::max_patience);
+}
+
+TEST_CASE("step control: an isolated failure costs three small steps", "[solver]") {
+  StepController control(0.01);
+  control.failed();
+  CHECK(control.step() == 0.005);
+  for (int i = 0; i < 2; ++i) {
+    control.succeeded();
+    CHECK(control.step() == 0.005);
+  }
+  control.succeeded();
+  CHECK(control.step() == 0.01);
+  // Patience relaxes after a long calm stretch at the nominal step.
+  control.failed();  // right after the regrowth: patience 3 -> 6
+  CHECK(control.patience() == 6);
+  for (int i = 0; i < 6; ++i) control.succeeded();
+  CHECK(control.step() == 0.01);
+  for (int i = 0; i < 4 * 6 + 1; ++i) control.succeeded();
+  CHECK(control.patience() == 3);
+}
