@@ -9,7 +9,10 @@
 //   f = d / sqrt(3) + eta (sigma_v + 2 d / 3) - xi c = 0,
 //   d = (xi c - eta sigma_v) / a,
 // whatever the dilatancy angle (the lateral strains are held at zero, the
-// vertical one is free). Quasi-static by backward Euler with h far beyond the
+// vertical one is free). For Mohr-Coulomb (sigma_1 = sigma_2 = sigma_h, an
+// edge of the pyramid) the same argument gives
+//   z* = 2 c cos(phi) / (rho g [(1 - K0) - (1 + K0) sin(phi)]),
+//   sigma_h = (2 c cos(phi) + sigma_v (1 - sin(phi))) / (1 + sin(phi)). Quasi-static by backward Euler with h far beyond the
 // column's period, as in test_elastic_column.
 #include <catch2/catch.hpp>
 #include <cmath>
@@ -23,7 +26,9 @@ using namespace talus;
 
 namespace {
 
-constexpr double H = 2.0, rho = 2000.0, g = 9.81, E = 1e7, nu = 0.3, phi = 20.0, c = 2600.0;
+constexpr double H = 2.0, rho = 2000.0, g = 9.81, E = 1e7, nu = 0.3, phi = 20.0;
+// Cohesions that put the yield depth near H / 2 for each law.
+constexpr double c_dp = 2600.0, c_mc = 864.0;
 
 struct YieldResult {
   double depth_exact;               // z*
@@ -34,12 +39,15 @@ struct YieldResult {
 };
 
 template <int dim>
-YieldResult load_column(int cells_over_height, double psi) {
+YieldResult load_column(int cells_over_height, double psi, bool mohr_coulomb = false) {
+  const double c = mohr_coulomb ? c_mc : c_dp;
   const double dx = H / cells_over_height, w = 4 * dx;
   char yaml[1400];
   const char* material =
-      "{name: soil, model: drucker_prager, density: %g, youngs_modulus: %g, poisson_ratio: %g, friction_angle: %g, "
-      "dilatancy_angle: %g, cohesion: %g, mohr_coulomb_match: plane_strain}";
+      mohr_coulomb ? "{name: soil, model: mohr_coulomb, density: %g, youngs_modulus: %g, poisson_ratio: %g, "
+                     "friction_angle: %g, dilatancy_angle: %g, cohesion: %g}"
+                   : "{name: soil, model: drucker_prager, density: %g, youngs_modulus: %g, poisson_ratio: %g, "
+                     "friction_angle: %g, dilatancy_angle: %g, cohesion: %g, mohr_coulomb_match: plane_strain}";
   char mat[400];
   std::snprintf(mat, sizeof mat, material, rho, E, nu, phi, psi, c);
   if constexpr (dim == 2)
@@ -66,7 +74,12 @@ YieldResult load_column(int cells_over_height, double psi) {
   drucker_prager_coefficients(MohrCoulombMatch::plane_strain, phi * M_PI / 180.0, eta, xi);
   const double K0 = nu / (1 - nu), a = 1 / std::sqrt(3.0) + 2 * eta / 3;
   YieldResult r{};
-  r.depth_exact = xi * c / (rho * g * ((1 - K0) * a - eta));
+  const double sin_phi = std::sin(phi * M_PI / 180.0), cos_phi = std::cos(phi * M_PI / 180.0);
+  r.depth_exact = mohr_coulomb ? 2 * c * cos_phi / (rho * g * ((1 - K0) - (1 + K0) * sin_phi))
+                               : xi * c / (rho * g * ((1 - K0) * a - eta));
+  const auto yielded_lateral = [&](double sv) {
+    return mohr_coulomb ? (2 * c * cos_phi + sv * (1 - sin_phi)) / (1 + sin_phi) : sv + (xi * c - eta * sv) / a;
+  };
   r.first_plastic_depth = H;
   const auto x = testing::gather_by_id(sim.particles(), field::position, dim);
   const auto u = testing::gather_by_id(sim.particles(), field::displacement, dim);
@@ -82,7 +95,7 @@ YieldResult load_column(int cells_over_height, double psi) {
     const double J = Fp.determinant();
     const double sv = tau[6 * p + vertical] / J, sh = tau[6 * p + 0] / J;  // Cauchy
     const double sv_exact = -rho * g * z;
-    const double sh_exact = z <= r.depth_exact ? K0 * sv_exact : sv_exact + (xi * c - eta * sv_exact) / a;
+    const double sh_exact = z <= r.depth_exact ? K0 * sv_exact : yielded_lateral(sv_exact);
     ev += std::pow(sv - sv_exact, 2);
     eh += std::pow(sh - sh_exact, 2);
     if (eps_p[p] > 0) {
@@ -100,16 +113,16 @@ YieldResult load_column(int cells_over_height, double psi) {
 
 }  // namespace
 
-TEST_CASE("a Drucker-Prager column in uniaxial strain yields at the analytic load", "[plasticity][column][mpi]") {
-  for (double psi : {0.0, 20.0}) {
-    const YieldResult coarse = load_column<2>(10, psi), fine = load_column<2>(20, psi);
-    std::printf("confined yield, psi %g: z* = %.4f m; 20 cells: plastic from z = %.4f, elastic down to %.4f "
+TEST_CASE("a column in uniaxial strain yields at the analytic load", "[plasticity][column][mpi]") {
+  for (const auto& [psi, mc] : {std::pair{0.0, false}, std::pair{20.0, false}, std::pair{0.0, true}, std::pair{20.0, true}}) {
+    const YieldResult coarse = load_column<2>(10, psi, mc), fine = load_column<2>(20, psi, mc);
+    std::printf("confined yield, %s, psi %g: z* = %.4f m; 20 cells: plastic from z = %.4f, elastic down to %.4f "
                 "(%ld plastic, %ld elastic); RMS error sigma_v %.2e, sigma_h %.2e (10 cells: %.2e, %.2e)\n",
-                psi, fine.depth_exact, fine.first_plastic_depth, fine.deepest_elastic_depth, fine.plastic,
+                mc ? "Mohr-Coulomb" : "Drucker-Prager", psi, fine.depth_exact, fine.first_plastic_depth, fine.deepest_elastic_depth, fine.plastic,
                 fine.elastic, fine.error_vertical, fine.error_horizontal, coarse.error_vertical,
                 coarse.error_horizontal);
     // The yield depth is 1.00 m of 2 m: both zones are populated.
-    REQUIRE(fine.depth_exact == Approx(1.0).epsilon(0.01));
+    REQUIRE(fine.depth_exact == Approx(1.0).epsilon(0.02));
     // Yield starts at the analytic depth to within one particle spacing
     // (dx / 2 = 0.05 m), the resolution of the particle stresses.
     const double spacing = H / 20 / 2;
@@ -123,6 +136,8 @@ TEST_CASE("a Drucker-Prager column in uniaxial strain yields at the analytic loa
     CHECK(coarse.error_horizontal / fine.error_horizontal > 2.0);
   }
   // The 3D column is the same 1D problem.
-  const YieldResult r3 = load_column<3>(10, 0.0), r2 = load_column<2>(10, 0.0);
-  CHECK(r3.error_horizontal == Approx(r2.error_horizontal).epsilon(1e-6));
+  for (bool mc : {false, true}) {
+    const YieldResult r3 = load_column<3>(10, 0.0, mc), r2 = load_column<2>(10, 0.0, mc);
+    CHECK(r3.error_horizontal == Approx(r2.error_horizontal).epsilon(1e-6));
+  }
 }
