@@ -80,11 +80,16 @@ std::unique_ptr<Material> DruckerPrager::from_yaml(YamlSection& y) {
   if (c < 0) y.fail_value("cohesion", std::to_string(c), "must be >= 0");
   const double H = y.real("hardening_modulus", 0.0);
   const std::string match = y.choice("mohr_coulomb_match", {"outer", "inner", "plane_strain"}, "plane_strain");
-  return std::make_unique<DruckerPrager>(drucker_prager_parameters(
-      rho, E, nu, phi, psi, c, H,
-      match == "outer"   ? MohrCoulombMatch::outer
-      : match == "inner" ? MohrCoulombMatch::inner
-                         : MohrCoulombMatch::plane_strain));
+  DruckerPragerParameters par = drucker_prager_parameters(rho, E, nu, phi, psi, c, H,
+                                                          match == "outer"   ? MohrCoulombMatch::outer
+                                                          : match == "inner" ? MohrCoulombMatch::inner
+                                                                             : MohrCoulombMatch::plane_strain);
+  if (y.has("tension_cutoff")) {
+    par.tension_cutoff = y.real("tension_cutoff");
+    if (!(par.tension_cutoff >= 0.0))
+      y.fail_value("tension_cutoff", std::to_string(par.tension_cutoff), "must be >= 0");
+  }
+  return std::make_unique<DruckerPrager>(par);
 }
 
 double DruckerPrager::yield_function(const Voigt& stress, double alpha) const {
@@ -117,9 +122,13 @@ void DruckerPrager::return_map(const Voigt& rotated_stress, const Voigt& strain_
   const Voigt s_tr = trial - p_tr * unit_voigt;
   const double sqrt_j2 = norm(s_tr) / std::sqrt(2.0);
   const double f_tr = sqrt_j2 + eta_ * p_tr - xi_ * c_n;
+  // Tension cut-off f_t = p - p_t (p_t = infinity: none, and then every
+  // branch below runs exactly the operations of the law without cut-off).
+  const bool cutoff = std::isfinite(par_.tension_cutoff);
+  const double p_t = par_.tension_cutoff;
   // Relative tolerance on the yield test: round-off of the trial stress.
   const double scale = std::abs(p_tr) + sqrt_j2 + xi_ * std::abs(c_n);
-  if (f_tr <= 1e-12 * scale) {
+  if (f_tr <= 1e-12 * scale && (!cutoff || p_tr - p_t <= 1e-12 * scale)) {
     out.stress = trial;
     out.tangent = stiffness_;
     out.trial_sensitivity.setIdentity();
@@ -134,10 +143,16 @@ void DruckerPrager::return_map(const Voigt& rotated_stress, const Voigt& strain_
   // Return to the smooth part of the cone: f(dgamma) is linear in dgamma.
   const double A = G + K * eta_ * eta_bar_ + xi_ * xi_ * H;
   const double dgamma = f_tr / A;
+  const double p_cone = p_tr - K * eta_bar_ * dgamma;
+  // The cone evaluated at the cut-off with the trial deviator: m <= 0 means the
+  // trial deviator fits inside the cone on the plane p = p_t.
+  const double m = sqrt_j2 + eta_ * p_t - xi_ * c_n;
   Tangent S;  // d sigma / d trial
-  if (sqrt_j2 - G * dgamma >= 0.0) {
+  bool on_cone = false;
+  if (sqrt_j2 - G * dgamma >= 0.0 && (!cutoff || p_cone <= p_t)) {
+    on_cone = true;
     const double ratio = G * dgamma / sqrt_j2;
-    out.stress = (1.0 - ratio) * s_tr + (p_tr - K * eta_bar_ * dgamma) * unit_voigt;
+    out.stress = (1.0 - ratio) * s_tr + p_cone * unit_voigt;
     // d dgamma / d trial = (n/sqrt2 + eta/3 I) : / A  (strain-like row)
     const Voigt ddg = strain_like(n / std::sqrt(2.0) + eta_ / 3.0 * unit_voigt) / A;
     const Tangent ds = (1.0 - ratio) * P_dev - std::sqrt(2.0) * G * n * ddg.transpose() +
@@ -145,6 +160,24 @@ void DruckerPrager::return_map(const Voigt& rotated_stress, const Voigt& strain_
     const Voigt dp = unit_voigt / 3.0 - K * eta_bar_ * ddg;
     S = ds + unit_voigt * dp.transpose();
     *alpha_new = alpha_n + xi_ * dgamma;
+  } else if (cutoff && p_tr > p_t && m <= 0.0) {
+    // Cut-off plane: p = p_t, deviator unchanged; the plastic strain is purely
+    // volumetric, tr d_eps_p = (p_tr - p_t) / K, and the cone does not harden.
+    out.stress = s_tr + p_t * unit_voigt;
+    S = P_dev;
+    *alpha_new = alpha_n;
+  } else if (cutoff && m > 0.0 && sqrt_j2 - G * m / (G + xi_ * xi_ * H) >= 0.0) {
+    // Corner of cone and cut-off: p = p_t and f = 0 give the shear multiplier
+    //   dgamma = (sqrt(J2_tr) + eta p_t - xi c_n) / (G + xi^2 H);
+    // the cut-off's multiplier (p_tr - p_t)/K - eta_bar dgamma takes the rest
+    // of the volume change.
+    const double B = G + xi_ * xi_ * H;
+    const double dg = m / B;
+    const double ratio = G * dg / sqrt_j2;
+    out.stress = (1.0 - ratio) * s_tr + p_t * unit_voigt;
+    const Voigt ddg = strain_like(n / std::sqrt(2.0)) / B;
+    S = (1.0 - ratio) * P_dev - std::sqrt(2.0) * G * n * ddg.transpose() + ratio * n * strain_like(n).transpose();
+    *alpha_new = alpha_n + xi_ * dg;
   } else {
     // Apex: sigma = p I with p = xi c / eta; the modified plastic strain
     // eps_hat lies in the normal cone of the apex, tr(eps_hat) = eta dgamma,
@@ -152,18 +185,31 @@ void DruckerPrager::return_map(const Voigt& rotated_stress, const Voigt& strain_
     const double denom = eta_ + xi_ * xi_ * H / (eta_ * K);
     const double dg = ((p_tr - xi_ * c_n / eta_) / K + (eta_ - eta_bar_) * sqrt_j2 / G) / denom;
     const double p = xi_ * (c_n + H * xi_ * dg) / eta_;
-    out.stress = p * unit_voigt;
-    const Voigt ddg = strain_like(unit_voigt / (3.0 * K) + (eta_ - eta_bar_) / G * n / std::sqrt(2.0)) / denom;
-    S = unit_voigt * (xi_ * xi_ * H / eta_ * ddg).transpose();
-    *alpha_new = alpha_n + xi_ * dg;
+    if (!cutoff || p <= p_t) {
+      out.stress = p * unit_voigt;
+      const Voigt ddg = strain_like(unit_voigt / (3.0 * K) + (eta_ - eta_bar_) / G * n / std::sqrt(2.0)) / denom;
+      S = unit_voigt * (xi_ * xi_ * H / eta_ * ddg).transpose();
+      *alpha_new = alpha_n + xi_ * dg;
+    } else {
+      // Tip: hardening would lift the apex above the cut-off; the stress stays
+      // at p_t I and the cone hardens just enough to put its apex there,
+      // xi c(alpha) / eta = p_t. Only reached with H != 0 (H = 0 here is
+      // round-off at an apex exactly on the cut-off, where alpha is inert).
+      out.stress = p_t * unit_voigt;
+      S.setZero();
+      const double dg_tip = H != 0.0 ? (eta_ * p_t / xi_ - c_n) / (xi_ * H) : 0.0;
+      *alpha_new = alpha_n + xi_ * std::max(0.0, dg_tip);
+    }
   }
   out.trial_sensitivity = S;
   out.tangent = S * stiffness_;
   out.plastic_strain_increment = compliance_ * (trial - out.stress);
   out.separation_strain_increment = 0.0;
-  if (sqrt_j2 - G * dgamma < 0.0) {
-    // At the apex the volume opened beyond the flow rule's dilatancy,
-    // tr d_eps_p - sqrt(2) eta_bar |dev d_eps_p|, is separation (a void).
+  if (!on_cone) {
+    // Off the smooth cone (apex, tip, cut-off plane, corner) the volume opened
+    // beyond the flow rule's dilatancy, tr d_eps_p - sqrt(2) eta_bar
+    // |dev d_eps_p|, is separation (a void); on the cut-off plane that is the
+    // whole plastic volume change, at the corner the cut-off's multiplier.
     const Voigt& e = out.plastic_strain_increment;
     const double tr = e.head<3>().sum();
     Voigt dev = e;

@@ -12,6 +12,16 @@
 // Coulomb friction). Cone and apex regions then partition the trial space for
 // every eta_bar in [0, eta], so psi = 0 never fails: a trial state beyond the
 // apex returns to the apex, opening volumetrically like a contact separating.
+//
+// Optional tension cut-off f_t = p - p_t <= 0 (docs/plasticity.md, "Tension
+// cut-off"): the return then also has the cut-off plane (p = p_t, deviator
+// unchanged), the corner of plane and cone (two multipliers), and, with
+// hardening, the tip (sigma = p_t I, the apex pinned at the cut-off). The
+// regions partition the plastic trial states (with softening the local
+// problem can have several solutions; the least-softening one is taken).
+// The cut-off itself does not harden.
+#include <limits>
+
 #include "talus/materials/material.hpp"
 
 namespace talus {
@@ -24,6 +34,8 @@ struct DruckerPragerParameters {
   double dilatancy_angle = 0;  // psi, radians, 0 <= psi <= phi
   double cohesion = 0;         // c0, Pa
   double hardening_modulus = 0;  // H = dc/dalpha, Pa (negative: softening)
+  // p_t, Pa: the largest admissible mean stress; infinity: no cut-off.
+  double tension_cutoff = std::numeric_limits<double>::infinity();
   MohrCoulombMatch match = MohrCoulombMatch::plane_strain;
 };
 
@@ -55,6 +67,7 @@ class DruckerPrager final : public Material {
   double xi() const { return xi_; }
   double shear_modulus() const { return shear_; }
   double bulk_modulus() const { return bulk_; }
+  double tension_cutoff() const { return par_.tension_cutoff; }  // infinity when absent
 
  private:
   // The closed-form return with cohesion c_n and slope H = dc/dalpha.
