@@ -45,6 +45,8 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402  (after the backend choice)
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from bench_common import machine_busy_seconds, markdown_lines, table_lines  # noqa: E402
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -274,17 +276,6 @@ def run_once(args, case_path, ranks, options, log_path, timeout=None):
     return summary
 
 
-def machine_busy_seconds():
-    """Busy CPU time of all cores since boot, in seconds (/proc/stat)."""
-    try:
-        with open("/proc/stat") as f:
-            v = [int(x) for x in f.readline().split()[1:]]
-    except (OSError, ValueError):
-        return 0.0
-    idle = v[3] + (v[4] if len(v) > 4 else 0)
-    return (sum(v[:8]) - idle) / os.sysconf("SC_CLK_TCK")
-
-
 def cpu_busy_fraction(seconds=1.0):
     """Fraction of all cores' time spent busy over a short sample (/proc/stat)."""
     def sample():
@@ -377,33 +368,6 @@ def median_row(runs):
 # ---------------------------------------------------------------- output
 
 
-def fmt(value, spec):
-    if value is None or value == "" or (isinstance(value, float) and math.isnan(value)):
-        return "-"
-    try:
-        return spec.format(value)
-    except (ValueError, TypeError):
-        return str(value)
-
-
-def table_lines(rows):
-    head = [h for _, h, _ in COLUMNS]
-    body = [[fmt(r.get(k), f) for k, _, f in COLUMNS] for r in rows]
-    widths = [max(len(head[i]), *(len(b[i]) for b in body)) if body else len(head[i]) for i in range(len(head))]
-    lines = ["  ".join(h.rjust(w) for h, w in zip(head, widths)),
-             "  ".join("-" * w for w in widths)]
-    lines += ["  ".join(c.rjust(w) for c, w in zip(b, widths)) for b in body]
-    return lines
-
-
-def markdown_lines(rows):
-    head = [h for _, h, _ in COLUMNS]
-    lines = ["| " + " | ".join(head) + " |", "|" + "|".join("---:" if i else "---" for i in range(len(head))) + "|"]
-    for r in rows:
-        lines.append("| " + " | ".join(fmt(r.get(k), f) for k, _, f in COLUMNS) + " |")
-    return lines
-
-
 def write_csv(path, rows, keys):
     with open(path, "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=keys, extrasaction="ignore")
@@ -487,7 +451,7 @@ def main(argv=None):
         if good:
             plot(os.path.join(out_dir, "bench_core.png"), good,
                  f"talus 2D elastic block (medians of {max(r['runs'] for r in good)} run(s))")
-        print("\n".join(table_lines(rows)))
+        print("\n".join(table_lines(rows, COLUMNS)))
         return 0
     rank_list = [1] if args.no_mpi else [1, args.ranks]
     work = tempfile.mkdtemp(prefix="talus_bench_")
@@ -577,13 +541,13 @@ def main(argv=None):
               ["solver", "ranks", "size", "repeat", "load_before", "other_cores"]
               + [k for k in keys[3:] if k not in per_run])
     note = f"medians of {args.repeats} run(s); dt = {args.dt:g} s"
-    _write(os.path.join(out_dir, "bench_core.md"), "\n".join(markdown_lines(rows) + ["", note, ""]))
+    _write(os.path.join(out_dir, "bench_core.md"), "\n".join(markdown_lines(rows, COLUMNS, 1) + ["", note, ""]))
     good = [r for r in rows if r.get("runs")]
     if good:
         plot(os.path.join(out_dir, "bench_core.png"), good, f"talus 2D elastic block ({note})")
 
     print()
-    print("\n".join(table_lines(rows)))
+    print("\n".join(table_lines(rows, COLUMNS)))
     print(note + "; memory: the largest rank's peak RSS in MiB (talus' peak_rss_mb), "
           "B/particle = MiB x 2^20 / all particles")
     for r in rows:
