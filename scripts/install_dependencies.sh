@@ -13,7 +13,8 @@ packages=(
   build-essential cmake ninja-build pkg-config
   petsc-dev libeigen3-dev libhdf5-openmpi-dev libvtk9-dev
   libopenmpi-dev openmpi-bin catch2 libyaml-cpp-dev
-  python3-numpy python3-matplotlib python3-vtk9 xvfb
+  python3-numpy python3-matplotlib python3-vtk9 xvfb hdf5-tools
+  python3-yaml
 )
 
 missing=()

@@ -2,6 +2,9 @@
 #include "talus/solver/step_control.hpp"
 
 #include <algorithm>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
 #include <chrono>
 #include <cmath>
 #include <iomanip>
@@ -174,22 +177,62 @@ void Simulation<dim>::keep_particles_inside() {
                           std::to_string(time_) + "; enlarge the grid box or make that face slip or fixed");
 }
 
+namespace {
+// Set by SIGINT/SIGTERM; the run loop checks it after every step.
+volatile std::sig_atomic_t pending_signal = 0;
+extern "C" void remember_signal(int signal) { pending_signal = signal; }
+}  // namespace
+
+template <int dim>
+void Simulation<dim>::restart(const std::string& checkpoint_path) {
+  resume_ = std::make_unique<RunState>(read_checkpoint(checkpoint_path, *particles_, *grid_, comm_));
+  time_ = resume_->time;
+}
+
 template <int dim>
 RunSummary Simulation<dim>::run(std::ostream* progress) {
   RunSummary summary;
   const auto start = std::chrono::steady_clock::now();
+  const double start_time = time_;
   int rank;
   MPI_Comm_rank(comm_, &rank);
   const TimeConfig& tc = config_.time;
-  std::unique_ptr<VtkSeries<dim>> vtk;
-  if (config_.output.enabled) {
-    vtk = std::make_unique<VtkSeries<dim>>(comm_, config_.output.directory);
-    vtk->write(*particles_, time_);
-    ++summary.outputs;
-  }
   const double eps = 1e-12 * tc.end;
   double next_output = config_.output.interval > 0 ? config_.output.interval : tc.end;
   StepController control(tc.step);
+  std::unique_ptr<VtkSeries<dim>> vtk;
+  if (config_.output.enabled) vtk = std::make_unique<VtkSeries<dim>>(comm_, config_.output.directory);
+  if (resume_) {
+    summary.steps = resume_->steps;
+    summary.cutbacks = resume_->cutbacks;
+    control.restore({resume_->step_size, resume_->patience, resume_->calm, resume_->since_growth});
+    next_output = resume_->next_output;
+    if (vtk) vtk->resume(resume_->outputs);
+  } else if (vtk) {
+    vtk->write(*particles_, time_);
+    ++summary.outputs;
+  }
+  const auto checkpoint = [&] {
+    const StepController::State s = control.state();
+    RunState state{time_, summary.steps, summary.cutbacks, s.step, s.patience, s.calm, s.since_growth, next_output,
+                   vtk ? vtk->entries() : std::vector<std::pair<double, std::string>>{}};
+    std::filesystem::create_directories(config_.checkpoint.directory);
+    char name[64];
+    std::snprintf(name, sizeof name, "checkpoint_%06ld.h5", summary.steps);
+    summary.last_checkpoint = config_.checkpoint.directory + "/" + name;
+    write_checkpoint(summary.last_checkpoint, *particles_, state, comm_);
+    if (progress && rank == 0) *progress << "  checkpoint " << summary.last_checkpoint << "\n";
+  };
+  pending_signal = 0;
+  const auto previous_int = std::signal(SIGINT, remember_signal);
+  const auto previous_term = std::signal(SIGTERM, remember_signal);
+  struct RestoreSignals {
+    decltype(previous_int) i, t;
+    ~RestoreSignals() {
+      std::signal(SIGINT, i);
+      std::signal(SIGTERM, t);
+    }
+  } restore_signals{previous_int, previous_term};
   while (time_ < tc.end - eps) {
     const double h_try = std::min(control.step(), tc.end - time_);
     StepReport r = advance(h_try);
@@ -219,14 +262,27 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
     }
     if (progress && rank == 0) {
       const double elapsed = seconds_since(start);
-      const double eta = elapsed / time_ * (tc.end - time_);
+      const double eta = elapsed / (time_ - start_time) * (tc.end - time_);
       *progress << "step " << std::setw(6) << summary.steps << "  t " << std::scientific << std::setprecision(4)
                 << time_ << "  h " << std::setprecision(3) << r.h << std::defaultfloat << "  newton "
                 << r.newton.iterations << "  ksp " << r.newton.linear_iterations << "  active " << r.active_points
                 << "  ETA " << clock_text(eta) << (due && vtk ? "  [output]" : "") << "\n";
       progress->flush();
     }
+    // A signal on any rank stops every rank after this step, with a checkpoint.
+    int signal_here = pending_signal, signal_any = 0;
+    MPI_Allreduce(&signal_here, &signal_any, 1, MPI_INT, MPI_MAX, comm_);
+    if (signal_any) {
+      summary.interrupted_by = signal_any;
+      if (config_.checkpoint.enabled) checkpoint();
+      summary.wall_seconds = seconds_since(start);
+      return summary;
+    }
+    if (config_.checkpoint.enabled && config_.checkpoint.interval > 0 &&
+        summary.steps % config_.checkpoint.interval == 0 && time_ < tc.end - eps)
+      checkpoint();
   }
+  if (config_.checkpoint.enabled) checkpoint();
   summary.wall_seconds = seconds_since(start);
   return summary;
 }

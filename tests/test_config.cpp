@@ -105,6 +105,21 @@ TEST_CASE("malformed cases name the key, the value and the line", "[config]") {
        "case.yaml:16: bodies[0].polygon[1] = [1.0, x]: entry 'x' is not a finite number"},
       {"grid: [1, 2\n", "case.yaml:2: YAML syntax error"},
       {"", "the case file must be a YAML map"},
+      // A key given twice: YAML would keep the first value without a word.
+      {replace(valid, "    poisson_ratio: 0.3\n", "    poisson_ratio: 0.3\n    poisson_ratio: 0.45\n"),
+       "case.yaml:13: materials[0].poisson_ratio: is given twice (first on line 12)"},
+      {replace(valid, "boundaries: {y_min: fixed}", "boundaries: {y_min: fixed, y_min: free}"),
+       "case.yaml:17: boundaries.y_min: is given twice"},
+      {valid + "solver: {petsc_options: {ksp_type: cg, ksp_type: gmres}}\n",
+       "case.yaml:18: solver.petsc_options.ksp_type: is given twice"},
+      // Bodies that the seeding lattice (spacing 0.05 here) would leave empty.
+      {replace(valid, "upper: [1.0, 0.5]", "upper: [1.0, 0.02]"), "case.yaml:16: bodies[0].box: holds no particle"},
+      {replace(valid, "box: {lower: [0.5, 0], upper: [1.0, 0.5]}", "polygon: [[0.5, 0.01], [0.98, 0.49], [0.97, 0.49]]"),
+       "case.yaml:16: bodies[0].polygon: holds no particle"},
+      {"grid:\n\tlower: [0, 0]\n", "case.yaml:2: YAML syntax error"},
+      {"grid:\n\tlower: [0, 0]\n", "(a tab character in the indentation"},
+      {"# only a comment\n", "the case file must be a YAML map (grid, time, materials, bodies, ...); it is empty"},
+      {"- grid: 1\n- time: 2\n", "the case file must be a YAML map (grid, time, materials, bodies, ...); it is a list"},
   };
   for (const Case& c : cases) {
     const std::string message = error_of(c.yaml);
@@ -115,6 +130,7 @@ TEST_CASE("malformed cases name the key, the value and the line", "[config]") {
 
 TEST_CASE("a missing case file is an input error", "[config]") {
   CHECK_THROWS_AS(load_case("/nonexistent/case.yaml"), InputError);
+  CHECK_THROWS_WITH(load_case("."), Catch::Contains(".: is a directory, not a case file"));
 }
 
 TEST_CASE("a polygon body is filled with exactly the lattice points inside it", "[config][seeding]") {

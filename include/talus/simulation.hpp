@@ -2,8 +2,10 @@
 // One run of a case: the particles, the grid, and the implicit time step.
 #include <iosfwd>
 #include <memory>
+#include <string>
 #include <vector>
 
+#include "talus/io/checkpoint.hpp"
 #include "talus/io/config.hpp"
 #include "talus/io/vtk_output.hpp"
 #include "talus/solver/newton.hpp"
@@ -21,6 +23,8 @@ struct StepReport {
 
 struct RunSummary {
   long steps = 0, cutbacks = 0, newton_iterations = 0, linear_iterations = 0, outputs = 0;
+  int interrupted_by = 0;        // SIGINT or SIGTERM if the run stopped on a signal
+  std::string last_checkpoint;   // empty if none was written
   long max_step_newton_iterations = 0;  // over the accepted steps (totals include failed attempts)
   double wall_seconds = 0, transfer_seconds = 0, solve_seconds = 0;
 };
@@ -34,8 +38,14 @@ class Simulation {
   // are left exactly as they were and report.converged is false.
   StepReport advance(double h);
 
-  // Runs to config.time.end with cut-backs; writes VTK output if enabled.
+  // Runs to config.time.end with cut-backs; writes VTK output if enabled, and
+  // HDF5 checkpoints (docs/checkpoints.md). A SIGINT or SIGTERM received
+  // during the run ends it after the current step, with a checkpoint.
   RunSummary run(std::ostream* progress);
+
+  // Continue from a checkpoint: particles, time, step control and output
+  // series come from the file; run() then goes on to config.time.end.
+  void restart(const std::string& checkpoint_path);
 
   double time() const { return time_; }
   const Grid<dim>& grid() const { return *grid_; }
@@ -57,6 +67,7 @@ class Simulation {
   Vector<dim> gravity_;
   double mass_threshold_ = 0;
   double time_ = 0;
+  std::unique_ptr<RunState> resume_;  // set by restart()
   PetscInt last_system_size_ = 0;
 };
 

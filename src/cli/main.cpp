@@ -16,16 +16,24 @@ namespace {
 const char* usage =
     "talus " TALUS_VERSION " - implicit Material Point Method for landslides\n\n"
     "usage:\n"
-    "  talus run   CASE.yaml [PETSc options]   run a case (ParaView output in output.directory)\n"
+    "  talus run   CASE.yaml [--restart FILE.h5] [PETSc options]\n"
+    "                                          run a case (ParaView output in output.directory),\n"
+    "                                          or continue it from an HDF5 checkpoint\n"
     "  talus check CASE.yaml                   validate a case file and exit\n"
     "  talus --help | --version\n\n"
     "Solver options go to PETSc with the prefix -talus_, e.g. -talus_snes_monitor,\n"
     "-talus_ksp_type gmres -talus_pc_type gamg (see docs/solver.md).\n"
-    "Exit codes: 0 success, 1 internal error, 2 bad input, 3 the simulation failed.\n";
+    "SIGINT/SIGTERM end a run after the current step with a checkpoint (docs/checkpoints.md).\n"
+    "Exit codes: 0 success, 1 internal error, 2 bad input, 3 the simulation failed,\n"
+    "130/143 stopped by SIGINT/SIGTERM (checkpoint written).\n";
 
 template <int dim>
-int run_case(const talus::CaseConfig& config, int rank) {
+int run_case(const talus::CaseConfig& config, const std::string& restart, int rank) {
   talus::Simulation<dim> sim(config, PETSC_COMM_WORLD);
+  if (!restart.empty()) {
+    sim.restart(restart);
+    if (rank == 0) std::cout << "talus: restarting from " << restart << " at t = " << sim.time() << "\n";
+  }
   const PetscInt particles = sim.particles().global_count();  // collective: every rank asks
   if (rank == 0)
     std::cout << "talus: " << dim << "D case " << config.source_file << ", " << particles
@@ -38,6 +46,10 @@ int run_case(const talus::CaseConfig& config, int rank) {
               << " KSP iterations, " << s.outputs << " outputs";
     if (config.output.enabled) std::cout << " (" << config.output.directory << "/particles.pvd)";
     std::cout << "\n";
+    if (s.interrupted_by)
+      std::cout << "talus: stopped by signal " << s.interrupted_by << " at t = " << sim.time()
+                << (s.last_checkpoint.empty() ? std::string() : "; continue with --restart " + s.last_checkpoint)
+                << "\n";
   }
   // One machine-readable line for scripts/ (benchmarks): totals over the run,
   // peak resident memory of the largest rank.
@@ -53,7 +65,7 @@ int run_case(const talus::CaseConfig& config, int rank) {
               << ", \"linear_iterations\": " << s.linear_iterations << ", \"wall_seconds\": " << s.wall_seconds
               << ", \"transfer_seconds\": " << s.transfer_seconds << ", \"solve_seconds\": " << s.solve_seconds
               << ", \"peak_rss_mb\": " << max_rss_mb << "}\n";
-  return 0;
+  return s.interrupted_by ? 128 + s.interrupted_by : 0;
 }
 
 }  // namespace
@@ -72,6 +84,19 @@ int main(int argc, char** argv) {
     std::cerr << "talus: unknown command line; see talus --help\n";
     return 2;
   }
+  // talus's own options are taken out before PETSc sees the command line.
+  std::string restart;
+  for (int i = 3; i < argc; ++i)
+    if (!std::strcmp(argv[i], "--restart")) {
+      if (i + 1 >= argc || command != "run") {
+        std::cerr << "talus: --restart needs a checkpoint file and the run command; see talus --help\n";
+        return 2;
+      }
+      restart = argv[i + 1];
+      for (int j = i; j + 2 <= argc; ++j) argv[j] = argv[j + 2];
+      argc -= 2;
+      break;
+    }
   if (PetscInitialize(&argc, &argv, nullptr, nullptr)) return 1;
   int rank = 0;
   MPI_Comm_rank(PETSC_COMM_WORLD, &rank);
@@ -81,7 +106,7 @@ int main(int argc, char** argv) {
     if (command == "check") {
       if (rank == 0) std::cout << "talus: " << argv[2] << " is a valid " << config.dim << "D case\n";
     } else {
-      code = config.dim == 2 ? run_case<2>(config, rank) : run_case<3>(config, rank);
+      code = config.dim == 2 ? run_case<2>(config, restart, rank) : run_case<3>(config, restart, rank);
     }
   } catch (const talus::InputError& e) {
     if (rank == 0) std::cerr << "talus: error: " << e.what() << "\n";

@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include "talus/io/yaml_section.hpp"
@@ -37,10 +39,27 @@ std::string scalar_text(const YAML::Node& n) {
   return s;
 }
 
+// YAML allows a key twice in one map and the first value silently wins:
+// a case file must not (the second value would be ignored without a word).
+void reject_duplicate_keys(const YAML::Node& map, const std::string& path, const std::string& file) {
+  if (!map.IsMap()) return;
+  std::map<std::string, int> first_line;
+  for (auto it = map.begin(); it != map.end(); ++it) {
+    const std::string key = it->first.Scalar();
+    const int line = it->first.Mark().line + 1;
+    const auto [at, inserted] = first_line.emplace(key, line);
+    if (!inserted)
+      throw InputError(file + ":" + std::to_string(line) + ": " + (path.empty() ? key : path + "." + key) +
+                       ": is given twice (first on line " + std::to_string(at->second) + ")");
+  }
+}
+
 }  // namespace
 
 YamlSection::YamlSection(YAML::Node node, std::string path, std::string file)
-    : node_(std::move(node)), path_(std::move(path)), file_(std::move(file)) {}
+    : node_(std::move(node)), path_(std::move(path)), file_(std::move(file)) {
+  reject_duplicate_keys(node_, path_, file_);
+}
 
 int YamlSection::line() const { return node_.Mark().line + 1; }
 
@@ -196,6 +215,7 @@ std::vector<std::pair<std::string, std::string>> YamlSection::free_map(const std
   if (!has(key)) return out;
   YAML::Node c = child(key, "a map");
   if (!c.IsMap()) fail_value(key, scalar_text(c), "must be a map of option: value");
+  reject_duplicate_keys(c, key_path(key), file_);
   for (auto it = c.begin(); it != c.end(); ++it) {
     if (!it->second.IsScalar() && !it->second.IsNull())
       fail_value(key + "." + it->first.Scalar(), scalar_text(it->second), "must be a single value");
@@ -233,6 +253,32 @@ namespace {
 FaceCondition parse_face(YamlSection& s, const std::string& key) {
   const std::string v = s.choice(key, {"free", "slip", "fixed"}, "slip");
   return v == "free" ? FaceCondition::free : v == "slip" ? FaceCondition::slip : FaceCondition::fixed;
+}
+
+// Whether the seeding lattice (src/particles/seeding.cpp: points at
+// grid.lower + (s + 1/2) * cell_size / particles_per_cell, box edges included
+// to 1e-9, polygons by the crossing-number test) puts a particle in the body.
+bool body_has_particle(const CaseConfig& c, const BodyConfig& body) {
+  const double spacing = c.grid.cell_size / body.particles_per_cell;
+  std::vector<long> first(c.dim), last(c.dim);
+  for (int a = 0; a < c.dim; ++a) {
+    first[a] = static_cast<long>(std::ceil((body.box_lower[a] - c.grid.lower[a]) / spacing - 0.5 - 1e-9));
+    last[a] = static_cast<long>(std::floor((body.box_upper[a] - c.grid.lower[a]) / spacing - 0.5 + 1e-9));
+    if (last[a] < first[a]) return false;
+  }
+  if (body.polygon.empty()) return true;
+  const auto& poly = body.polygon;
+  for (long i = first[0]; i <= last[0]; ++i)
+    for (long j = first[1]; j <= last[1]; ++j) {
+      const double x = c.grid.lower[0] + (i + 0.5) * spacing, y = c.grid.lower[1] + (j + 0.5) * spacing;
+      bool inside = false;
+      for (std::size_t k = 0, l = poly.size() - 1; k < poly.size(); l = k++)
+        if ((poly[k][1] > y) != (poly[l][1] > y) &&
+            x < poly[k][0] + (y - poly[k][1]) * (poly[l][0] - poly[k][0]) / (poly[l][1] - poly[k][1]))
+          inside = !inside;
+      if (inside) return true;
+    }
+  return false;
 }
 
 CaseConfig parse_root(YamlSection& root) {
@@ -279,6 +325,17 @@ CaseConfig parse_root(YamlSection& root) {
     if (c.output.interval < 0) o.fail_value("interval", std::to_string(c.output.interval), "must be >= 0");
     c.output.enabled = o.boolean("enabled", true);
     o.finish();
+  }
+  c.checkpoint.directory = c.output.directory;
+  c.checkpoint.enabled = c.output.enabled;
+  if (root.has("checkpoint")) {
+    YamlSection k = root.section("checkpoint");
+    c.checkpoint.enabled = k.boolean("enabled", c.output.enabled);
+    c.checkpoint.interval = k.integer("interval", 0);
+    if (c.checkpoint.interval < 0)
+      k.fail_value("interval", std::to_string(c.checkpoint.interval), "must be >= 0 (steps; 0: only at the end)");
+    c.checkpoint.directory = k.text("directory", c.output.directory);
+    k.finish();
   }
   c.gravity = root.has("gravity") ? root.reals("gravity", c.dim) : std::vector<double>(c.dim, 0.0);
 
@@ -356,6 +413,13 @@ CaseConfig parse_root(YamlSection& root) {
     bc.particles_per_cell = b.integer("particles_per_cell", 2);
     if (bc.particles_per_cell < 1 || bc.particles_per_cell > 8)
       b.fail_value("particles_per_cell", std::to_string(bc.particles_per_cell), "must be in 1..8 (per axis)");
+    if (!body_has_particle(c, bc)) {
+      std::ostringstream spacing;
+      spacing << c.grid.cell_size / bc.particles_per_cell;
+      b.fail(bc.polygon.empty() ? "box" : "polygon",
+             "holds no particle (too thin for the particle spacing cell_size / particles_per_cell = " +
+                 spacing.str() + " m)");
+    }
     bc.velocity = b.has("velocity") ? b.reals("velocity", c.dim) : std::vector<double>(c.dim, 0.0);
     b.finish();
     c.bodies.push_back(std::move(bc));
@@ -404,18 +468,34 @@ CaseConfig parse_case(const std::string& yaml_text, const std::string& name) {
   try {
     doc = YAML::Load(yaml_text);
   } catch (const YAML::ParserException& e) {
-    throw InputError(name + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg);
+    if (e.mark.is_null()) throw InputError(name + ": YAML syntax error: " + e.msg);
+    // yaml-cpp's messages for a tab in the indentation do not say so.
+    std::string hint;
+    std::istringstream lines(yaml_text);
+    std::string line;
+    for (int i = 0; i <= e.mark.line && std::getline(lines, line); ++i) {
+    }
+    const std::size_t indent_end = line.find_first_not_of(" \t");
+    if (line.substr(0, indent_end).find('\t') != std::string::npos)
+      hint = " (a tab character in the indentation: YAML indents with spaces only)";
+    throw InputError(name + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg + hint);
   }
-  if (!doc.IsMap()) throw InputError(name + ": the case file must be a YAML map (grid, time, materials, bodies, ...)");
+  if (!doc.IsMap()) {
+    const std::string what = doc.IsNull() ? "it is empty" : doc.IsSequence() ? "it is a list" : "it is a single value";
+    throw InputError(name + ": the case file must be a YAML map (grid, time, materials, bodies, ...); " + what);
+  }
   YamlSection root(doc, "", name);
   return parse_root(root);
 }
 
 CaseConfig load_case(const std::string& file) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(file, ec)) throw InputError(file + ": is a directory, not a case file");
   std::ifstream in(file);
   if (!in) throw InputError(file + ": cannot open the case file");
   std::stringstream buffer;
   buffer << in.rdbuf();
+  if (in.bad()) throw InputError(file + ": cannot read the case file");
   return parse_case(buffer.str(), file);
 }
 

@@ -129,20 +129,45 @@ std::string VtkSeries<dim>::write(const Particles<dim>& particles, double time) 
   std::ostringstream stem;
   stem << name_ << "_" << std::setw(6) << std::setfill('0') << entries_.size();
   const std::string file = directory_ + "/" + stem.str() + ".pvtu";
+  // The files are written in a staging directory and moved into place once
+  // every rank has written its piece, the .pvtu last and then the .pvd: an
+  // interrupted run never leaves a torn file under a final name.
+  const std::string staging = directory_ + "/.staging_" + stem.str();
+  if (rank == 0) std::filesystem::create_directories(staging);
+  MPI_Barrier(comm_);
+  const std::string staged = staging + "/" + stem.str() + ".pvtu";
   vtkNew<vtkXMLPUnstructuredGridWriter> writer;
   writer->SetController(controller_);
   writer->SetInputData(ug);
-  writer->SetFileName(file.c_str());
+  writer->SetFileName(staged.c_str());
   writer->SetNumberOfPieces(size);
   writer->SetStartPiece(rank);
   writer->SetEndPiece(rank);
   writer->SetDataModeToAppended();
   writer->EncodeAppendedDataOff();
   writer->SetCompressorTypeToZLib();
-  if (writer->Write() != 1) throw std::runtime_error("VTK could not write " + file);
+  if (writer->Write() != 1) throw std::runtime_error("VTK could not write " + staged);
+  MPI_Barrier(comm_);
+  // VTK writes no piece for a rank without particles (nor lists it in the .pvtu).
+  const std::string piece = stem.str() + "_" + std::to_string(rank) + ".vtu";
+  if (std::filesystem::exists(staging + "/" + piece))
+    std::filesystem::rename(staging + "/" + piece, directory_ + "/" + piece);
+  MPI_Barrier(comm_);
+  if (rank == 0) {
+    std::filesystem::rename(staged, file);
+    std::filesystem::remove(staging);
+  }
   entries_.emplace_back(time, stem.str() + ".pvtu");
   if (rank == 0) write_pvd();
   return file;
+}
+
+template <int dim>
+void VtkSeries<dim>::resume(const std::vector<std::pair<double, std::string>>& entries) {
+  entries_ = entries;
+  int rank;
+  MPI_Comm_rank(comm_, &rank);
+  if (rank == 0) write_pvd();
 }
 
 template <int dim>

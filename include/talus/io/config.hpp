@@ -33,6 +33,12 @@ struct OutputConfig {
   bool enabled = true;
 };
 
+struct CheckpointConfig {
+  bool enabled = true;     // a checkpoint at the end of the run and on SIGINT/SIGTERM (default: output.enabled)
+  long interval = 0;       // also every `interval` steps (0: none in between)
+  std::string directory;   // default: output.directory
+};
+
 struct MaterialConfig {
   std::string name;
   std::shared_ptr<const Material> law;
@@ -66,6 +72,7 @@ struct CaseConfig {
   GridConfig grid;
   TimeConfig time;
   OutputConfig output;
+  CheckpointConfig checkpoint;
   std::vector<double> gravity;
   std::vector<MaterialConfig> materials;
   std::vector<BodyConfig> bodies;

@@ -25,6 +25,10 @@ class VtkSeries {
   // Writes the particle fields; returns the .pvtu path.
   std::string write(const Particles<dim>& particles, double time);
 
+  // Continues a series after a restart: the outputs written before it.
+  void resume(const std::vector<std::pair<double, std::string>>& entries);
+  const std::vector<std::pair<double, std::string>>& entries() const { return entries_; }
+
  private:
   void write_pvd() const;
   MPI_Comm comm_;

@@ -20,6 +20,19 @@ class StepController {
   double step() const { return h_; }
   long patience() const { return patience_; }
 
+  // The complete state, for checkpoints.
+  struct State {
+    double step;
+    long patience, calm, since_growth;
+  };
+  State state() const { return {h_, patience_, calm_, since_growth_}; }
+  void restore(const State& s) {
+    h_ = s.step;
+    patience_ = s.patience;
+    calm_ = s.calm;
+    since_growth_ = s.since_growth;
+  }
+
   // The step of size step() failed: halve it. Returns the new step.
   double failed() {
     if (since_growth_ <= patience_) patience_ = std::min(2 * patience_, max_patience);

@@ -1,0 +1,40 @@
+#pragma once
+// HDF5 checkpoints of the complete state of a run (docs/checkpoints.md).
+//
+// One file per checkpoint, written collectively with MPI-IO by all ranks to a
+// temporary name and renamed: /particles/<field> datasets of shape
+// (particles, components) in rank order, and /run attributes with the time,
+// the step count, the time-step controller and the output series. Restarting
+// reads every particle and keeps the ones whose cell this rank owns, so a run
+// can restart on any number of ranks; on the same number of ranks every
+// particle comes back to its rank in its order, and the restarted run repeats
+// the uninterrupted one bit for bit.
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "talus/grid/grid.hpp"
+#include "talus/particles/particles.hpp"
+
+namespace talus {
+
+// Everything besides the particles that the run loop needs to continue.
+struct RunState {
+  double time = 0.0;
+  long steps = 0, cutbacks = 0;
+  // StepController
+  double step_size = 0.0;
+  long patience = 0, calm = 0, since_growth = 0;
+  // Output series: the next output time and the files written so far.
+  double next_output = 0.0;
+  std::vector<std::pair<double, std::string>> outputs;
+};
+
+template <int dim>
+void write_checkpoint(const std::string& path, const Particles<dim>& particles, const RunState& state, MPI_Comm comm);
+
+// Replaces the particles with those of the checkpoint (all ranks).
+template <int dim>
+RunState read_checkpoint(const std::string& path, Particles<dim>& particles, const Grid<dim>& grid, MPI_Comm comm);
+
+}  // namespace talus

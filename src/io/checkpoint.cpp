@@ -1,0 +1,254 @@
+#include "talus/io/checkpoint.hpp"
+
+#include <hdf5.h>
+
+#include <cstdint>
+#include <cstdio>
+#include <filesystem>
+#include <sstream>
+
+#include "talus/core/errors.hpp"
+#include "talus/materials/material.hpp"
+
+namespace talus {
+
+namespace {
+
+enum class Kind { real, index, id };
+
+struct FieldSpec {
+  const char* swarm_name;
+  const char* file_name;
+  int components;
+  Kind kind;
+};
+
+template <int dim>
+std::vector<FieldSpec> checkpoint_fields() {
+  return {{field::position, "position", dim, Kind::real},
+          {field::velocity, "velocity", dim, Kind::real},
+          {field::affine_velocity, "affine_velocity", dim * dim, Kind::real},
+          {field::displacement, "displacement", dim, Kind::real},
+          {field::mass, "mass", 1, Kind::real},
+          {field::initial_volume, "initial_volume", 1, Kind::real},
+          {field::deformation_gradient, "deformation_gradient", dim * dim, Kind::real},
+          {field::stress, "kirchhoff_stress", 6, Kind::real},
+          {field::material_state, "material_state", max_state_size, Kind::real},
+          {field::cumulative_plastic_strain, "cumulative_plastic_strain", 1, Kind::real},
+          {field::separation_strain, "separation_strain", 1, Kind::real},
+          {field::material_id, "material_id", 1, Kind::index},
+          {field::body_id, "body_id", 1, Kind::index},
+          {field::particle_id, "particle_id", 1, Kind::id}};
+}
+
+hid_t memory_type(Kind k) {
+  switch (k) {
+    case Kind::real: return H5T_NATIVE_DOUBLE;
+    case Kind::index: return sizeof(PetscInt) == 8 ? H5T_NATIVE_INT64 : H5T_NATIVE_INT32;
+    case Kind::id: return H5T_NATIVE_INT64;
+  }
+  return H5T_NATIVE_DOUBLE;
+}
+
+std::size_t element_size(Kind k) { return k == Kind::real ? sizeof(double) : k == Kind::index ? sizeof(PetscInt) : 8; }
+
+void check(herr_t status, const std::string& what) {
+  if (status < 0) throw std::runtime_error("HDF5: " + what + " failed");
+}
+
+// A closing guard for HDF5 handles.
+struct Handle {
+  hid_t id;
+  herr_t (*close)(hid_t);
+  Handle(hid_t i, herr_t (*c)(hid_t), const std::string& what) : id(i), close(c) {
+    if (id < 0) throw std::runtime_error("HDF5: " + what + " failed");
+  }
+  ~Handle() { close(id); }
+  Handle(const Handle&) = delete;
+  Handle& operator=(const Handle&) = delete;
+};
+
+template <class T>
+void write_attribute(hid_t location, const char* name, hid_t type, const T& value) {
+  Handle space(H5Screate(H5S_SCALAR), H5Sclose, "scalar space");
+  Handle attr(H5Acreate2(location, name, type, space.id, H5P_DEFAULT, H5P_DEFAULT), H5Aclose, name);
+  check(H5Awrite(attr.id, type, &value), name);
+}
+
+void write_text_attribute(hid_t location, const char* name, const std::string& text) {
+  Handle type(H5Tcopy(H5T_C_S1), H5Tclose, "string type");
+  check(H5Tset_size(type.id, text.size() + 1), "string size");
+  Handle space(H5Screate(H5S_SCALAR), H5Sclose, "scalar space");
+  Handle attr(H5Acreate2(location, name, type.id, space.id, H5P_DEFAULT, H5P_DEFAULT), H5Aclose, name);
+  check(H5Awrite(attr.id, type.id, text.c_str()), name);
+}
+
+template <class T>
+T read_attribute(hid_t location, const char* name, hid_t type) {
+  T value{};
+  Handle attr(H5Aopen(location, name, H5P_DEFAULT), H5Aclose, std::string("attribute ") + name);
+  check(H5Aread(attr.id, type, &value), name);
+  return value;
+}
+
+std::string read_text_attribute(hid_t location, const char* name) {
+  Handle attr(H5Aopen(location, name, H5P_DEFAULT), H5Aclose, std::string("attribute ") + name);
+  Handle type(H5Aget_type(attr.id), H5Tclose, "attribute type");
+  std::string text(H5Tget_size(type.id), '\0');
+  check(H5Aread(attr.id, type.id, text.data()), name);
+  text.resize(text.find('\0') == std::string::npos ? text.size() : text.find('\0'));
+  return text;
+}
+
+}  // namespace
+
+template <int dim>
+void write_checkpoint(const std::string& path, const Particles<dim>& particles, const RunState& state, MPI_Comm comm) {
+  int rank;
+  MPI_Comm_rank(comm, &rank);
+  const std::string tmp = path + ".tmp";
+  const long long local = particles.local_count();
+  long long offset = 0, total = 0;
+  MPI_Exscan(&local, &offset, 1, MPI_LONG_LONG, MPI_SUM, comm);
+  if (rank == 0) offset = 0;
+  MPI_Allreduce(&local, &total, 1, MPI_LONG_LONG, MPI_SUM, comm);
+  {
+    Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, "file access list");
+    check(H5Pset_fapl_mpio(fapl.id, comm, MPI_INFO_NULL), "MPI-IO driver");
+    Handle file(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.id), H5Fclose, "creating " + tmp);
+    Handle group(H5Gcreate2(file.id, "particles", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, "group");
+    Handle dxpl(H5Pcreate(H5P_DATASET_XFER), H5Pclose, "transfer list");
+    check(H5Pset_dxpl_mpio(dxpl.id, H5FD_MPIO_COLLECTIVE), "collective transfer");
+    DM sw = particles.swarm();
+    for (const FieldSpec& f : checkpoint_fields<dim>()) {
+      const hsize_t dims[2] = {static_cast<hsize_t>(total), static_cast<hsize_t>(f.components)};
+      Handle filespace(H5Screate_simple(2, dims, nullptr), H5Sclose, "file space");
+      Handle dset(H5Dcreate2(group.id, f.file_name, memory_type(f.kind), filespace.id, H5P_DEFAULT, H5P_DEFAULT,
+                             H5P_DEFAULT),
+                  H5Dclose, f.file_name);
+      const hsize_t start[2] = {static_cast<hsize_t>(offset), 0};
+      const hsize_t count[2] = {static_cast<hsize_t>(local), static_cast<hsize_t>(f.components)};
+      Handle memspace(H5Screate_simple(2, count, nullptr), H5Sclose, "memory space");
+      if (local > 0) {
+        check(H5Sselect_hyperslab(filespace.id, H5S_SELECT_SET, start, nullptr, count, nullptr), "hyperslab");
+      } else {
+        H5Sselect_none(filespace.id);
+        H5Sselect_none(memspace.id);
+      }
+      void* data = nullptr;
+      PetscInt block = 0;
+      TALUS_PETSC(DMSwarmGetField(sw, f.swarm_name, &block, nullptr, &data));
+      const double dummy = 0.0;
+      const herr_t status = H5Dwrite(dset.id, memory_type(f.kind), memspace.id, filespace.id, dxpl.id,
+                                     local > 0 ? data : &dummy);
+      TALUS_PETSC(DMSwarmRestoreField(sw, f.swarm_name, &block, nullptr, &data));
+      check(status, std::string("writing ") + f.file_name);
+    }
+    Handle run(H5Gcreate2(file.id, "run", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, "group run");
+    write_attribute(run.id, "dimension", H5T_NATIVE_INT, dim);
+    write_attribute(run.id, "time", H5T_NATIVE_DOUBLE, state.time);
+    write_attribute(run.id, "steps", H5T_NATIVE_LONG, state.steps);
+    write_attribute(run.id, "cutbacks", H5T_NATIVE_LONG, state.cutbacks);
+    write_attribute(run.id, "step_size", H5T_NATIVE_DOUBLE, state.step_size);
+    write_attribute(run.id, "step_patience", H5T_NATIVE_LONG, state.patience);
+    write_attribute(run.id, "steps_since_cutback", H5T_NATIVE_LONG, state.calm);
+    write_attribute(run.id, "steps_since_growth", H5T_NATIVE_LONG, state.since_growth);
+    write_attribute(run.id, "next_output", H5T_NATIVE_DOUBLE, state.next_output);
+    std::ostringstream outputs;
+    outputs.precision(17);
+    for (const auto& [t, file_name] : state.outputs) outputs << t << ' ' << file_name << '\n';
+    write_text_attribute(run.id, "outputs", outputs.str());
+  }
+  // Every rank has closed the file; only then does it get its final name.
+  MPI_Barrier(comm);
+  if (rank == 0) std::filesystem::rename(tmp, path);
+  MPI_Barrier(comm);
+}
+
+template <int dim>
+RunState read_checkpoint(const std::string& path, Particles<dim>& particles, const Grid<dim>& grid, MPI_Comm comm) {
+  if (!std::filesystem::exists(path)) throw InputError(path + ": no such checkpoint file");
+  int rank;
+  MPI_Comm_rank(comm, &rank);
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // errors become exceptions with our message
+  Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, "file access list");
+  check(H5Pset_fapl_mpio(fapl.id, comm, MPI_INFO_NULL), "MPI-IO driver");
+  const hid_t file_id = H5Fopen(path.c_str(), H5F_ACC_RDONLY, fapl.id);
+  if (file_id < 0) throw InputError(path + ": not an HDF5 checkpoint (cannot open it)");
+  Handle file(file_id, H5Fclose, "open");
+  const hid_t run_id = H5Gopen2(file.id, "run", H5P_DEFAULT);
+  if (run_id < 0) throw InputError(path + ": not a talus checkpoint (no /run group)");
+  Handle run(run_id, H5Gclose, "group run");
+  const int file_dim = read_attribute<int>(run.id, "dimension", H5T_NATIVE_INT);
+  if (file_dim != dim)
+    throw InputError(path + ": a " + std::to_string(file_dim) + "D checkpoint, but the case is " +
+                     std::to_string(dim) + "D");
+  RunState state;
+  state.time = read_attribute<double>(run.id, "time", H5T_NATIVE_DOUBLE);
+  state.steps = read_attribute<long>(run.id, "steps", H5T_NATIVE_LONG);
+  state.cutbacks = read_attribute<long>(run.id, "cutbacks", H5T_NATIVE_LONG);
+  state.step_size = read_attribute<double>(run.id, "step_size", H5T_NATIVE_DOUBLE);
+  state.patience = read_attribute<long>(run.id, "step_patience", H5T_NATIVE_LONG);
+  state.calm = read_attribute<long>(run.id, "steps_since_cutback", H5T_NATIVE_LONG);
+  state.since_growth = read_attribute<long>(run.id, "steps_since_growth", H5T_NATIVE_LONG);
+  state.next_output = read_attribute<double>(run.id, "next_output", H5T_NATIVE_DOUBLE);
+  {
+    std::istringstream in(read_text_attribute(run.id, "outputs"));
+    double t;
+    std::string name;
+    while (in >> t >> name) state.outputs.emplace_back(t, name);
+  }
+
+  Handle group(H5Gopen2(file.id, "particles", H5P_DEFAULT), H5Gclose, "group particles");
+  // Every rank reads each field whole and keeps the particles in its cells.
+  const auto read_field = [&](const FieldSpec& f, std::vector<char>& buffer) -> hsize_t {
+    Handle dset(H5Dopen2(group.id, f.file_name, H5P_DEFAULT), H5Dclose, std::string("dataset ") + f.file_name);
+    Handle space(H5Dget_space(dset.id), H5Sclose, "space");
+    hsize_t dims[2] = {0, 0};
+    if (H5Sget_simple_extent_ndims(space.id) != 2) throw InputError(path + ": bad dataset " + f.file_name);
+    H5Sget_simple_extent_dims(space.id, dims, nullptr);
+    if (dims[1] != static_cast<hsize_t>(f.components))
+      throw InputError(path + ": dataset " + f.file_name + " has " + std::to_string(dims[1]) + " components, expected " +
+                       std::to_string(f.components));
+    buffer.resize(std::max<std::size_t>(1, dims[0] * dims[1] * element_size(f.kind)));
+    check(H5Dread(dset.id, memory_type(f.kind), H5S_ALL, H5S_ALL, H5P_DEFAULT, buffer.data()), f.file_name);
+    return dims[0];
+  };
+  const auto fields = checkpoint_fields<dim>();
+  std::vector<char> buffer;
+  const hsize_t total = read_field(fields[0], buffer);
+  std::vector<std::size_t> mine;
+  {
+    const double* x = reinterpret_cast<const double*>(buffer.data());
+    for (hsize_t p = 0; p < total; ++p) {
+      Vector<dim> xp;
+      for (int a = 0; a < dim; ++a) xp[a] = x[dim * p + a];
+      if (grid.owner_rank(xp) == rank) mine.push_back(p);
+    }
+  }
+  long long kept = static_cast<long long>(mine.size()), all = 0;
+  MPI_Allreduce(&kept, &all, 1, MPI_LONG_LONG, MPI_SUM, comm);
+  if (all != static_cast<long long>(total))
+    throw InputError(path + ": " + std::to_string(total - all) + " particles of the checkpoint lie outside this case's grid");
+  TALUS_PETSC(DMSwarmSetLocalSizes(particles.swarm(), 0, 1024));
+  particles.add(static_cast<PetscInt>(mine.size()));
+  for (std::size_t k = 0; k < fields.size(); ++k) {
+    const FieldSpec& f = fields[k];
+    if (k > 0 && read_field(f, buffer) != total) throw InputError(path + ": datasets of different lengths");
+    void* data = nullptr;
+    PetscInt block = 0;
+    TALUS_PETSC(DMSwarmGetField(particles.swarm(), f.swarm_name, &block, nullptr, &data));
+    const std::size_t row = f.components * element_size(f.kind);
+    for (std::size_t q = 0; q < mine.size(); ++q)
+      std::copy_n(buffer.data() + mine[q] * row, row, static_cast<char*>(data) + q * row);
+    TALUS_PETSC(DMSwarmRestoreField(particles.swarm(), f.swarm_name, &block, nullptr, &data));
+  }
+  return state;
+}
+
+template void write_checkpoint<2>(const std::string&, const Particles<2>&, const RunState&, MPI_Comm);
+template void write_checkpoint<3>(const std::string&, const Particles<3>&, const RunState&, MPI_Comm);
+template RunState read_checkpoint<2>(const std::string&, Particles<2>&, const Grid<2>&, MPI_Comm);
+template RunState read_checkpoint<3>(const std::string&, Particles<3>&, const Grid<3>&, MPI_Comm);
+
+}  // namespace talus

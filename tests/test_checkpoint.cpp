@@ -1,0 +1,85 @@
+// HDF5 checkpoints: run 2N steps; run N steps, checkpoint, restart in a new
+// simulation and run N more. On the same number of ranks every particle comes
+// back to its rank in its order, so the two runs must agree bit for bit; the
+// test allows 1e-12 relative (round-off) and reports the largest difference.
+// A plastic, collapsing column is used so that the material state, the
+// Kirchhoff stress, the voids and the step controller all matter.
+#include <catch2/catch.hpp>
+#include <filesystem>
+
+#include "talus/simulation.hpp"
+#include "test_support.hpp"
+
+using namespace talus;
+
+namespace {
+
+std::string column(double end, const std::string& directory) {
+  return "grid: {lower: [0, 0], upper: [3.0, 1.2], cell_size: 0.05}\n"
+         "time: {end: " + std::to_string(end) + ", step: 0.00390625}\n"
+         "output: {enabled: false}\n"
+         "checkpoint: {enabled: true, directory: " + directory + "}\n"
+         "gravity: [0, -9.81]\n"
+         "materials: [{name: sand, model: drucker_prager, density: 2000, youngs_modulus: 1.0e6, poisson_ratio: 0.3,\n"
+         "             friction_angle: 30, dilatancy_angle: 0, cohesion: 0}]\n"
+         "bodies: [{name: column, material: sand, box: {lower: [0, 0], upper: [0.5, 1.0]}}]\n"
+         "boundaries: {y_min: fixed}\n";
+}
+
+double max_relative_difference(const std::vector<double>& a, const std::vector<double>& b) {
+  REQUIRE(a.size() == b.size());
+  double scale = 0, diff = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    scale = std::max(scale, std::abs(a[i]));
+    diff = std::max(diff, std::abs(a[i] - b[i]));
+  }
+  return scale > 0 ? diff / scale : diff;
+}
+
+}  // namespace
+
+TEST_CASE("a run restarted from a checkpoint repeats the uninterrupted run", "[checkpoint][mpi]") {
+  const std::string dir = "test_checkpoint_" + std::to_string(testing::comm_size(PETSC_COMM_WORLD));
+  int rank;
+  MPI_Comm_rank(PETSC_COMM_WORLD, &rank);
+  if (rank == 0) std::filesystem::remove_all(dir);
+  MPI_Barrier(PETSC_COMM_WORLD);
+
+  Simulation<2> whole(testing::case_from_yaml(column(0.25, dir + "/whole")), PETSC_COMM_WORLD);
+  const RunSummary w = whole.run(nullptr);
+  Simulation<2> first(testing::case_from_yaml(column(0.125, dir + "/first")), PETSC_COMM_WORLD);
+  const RunSummary f = first.run(nullptr);
+  REQUIRE(std::filesystem::exists(f.last_checkpoint));
+  Simulation<2> second(testing::case_from_yaml(column(0.25, dir + "/second")), PETSC_COMM_WORLD);
+  second.restart(f.last_checkpoint);
+  CHECK(second.time() == first.time());
+  for (const auto& [name, block] : {std::pair{field::position, 2}, std::pair{field::velocity, 2},
+                                    std::pair{field::stress, 6}, std::pair{field::affine_velocity, 4},
+                                    std::pair{field::material_state, 2}, std::pair{field::mass, 1}}) {
+    const double d = max_relative_difference(testing::gather_by_id(first.particles(), name, block),
+                                             testing::gather_by_id(second.particles(), name, block));
+    INFO("after reading, " << name << ": largest difference " << d);
+    CHECK(d == 0.0);
+  }
+  const RunSummary s = second.run(nullptr);
+  CHECK(s.steps == w.steps);  // the step count continues from the checkpoint
+  CHECK(second.time() == Approx(whole.time()).epsilon(1e-14));
+
+  for (const auto& [name, block] : {std::pair{field::position, 2}, std::pair{field::velocity, 2},
+                                    std::pair{field::stress, 6}, std::pair{field::deformation_gradient, 4},
+                                    std::pair{field::cumulative_plastic_strain, 1},
+                                    std::pair{field::separation_strain, 1}, std::pair{field::affine_velocity, 4}}) {
+    const double d = max_relative_difference(testing::gather_by_id(whole.particles(), name, block),
+                                             testing::gather_by_id(second.particles(), name, block));
+    INFO(name << ": largest difference " << d);
+    CHECK(d <= 1e-12);
+  }
+  // The column has collapsed enough for the comparison to mean something.
+  const auto eps_p = testing::gather_by_id(whole.particles(), field::cumulative_plastic_strain, 1);
+  CHECK(*std::max_element(eps_p.begin(), eps_p.end()) > 0.05);
+  // A missing checkpoint is an input error.
+  Simulation<2> bad(testing::case_from_yaml(column(0.25, dir + "/bad")), PETSC_COMM_WORLD);
+  CHECK_THROWS_AS(bad.restart(dir + "/none.h5"), InputError);
+  MPI_Barrier(PETSC_COMM_WORLD);
+  if (rank == 0) std::filesystem::remove_all(dir);
+}
