@@ -103,6 +103,13 @@ TEST_CASE("malformed cases name the key, the value and the line", "[config]") {
        "bodies[0].polygon: has zero area"},
       {replace(valid, "box: {lower: [0.5, 0], upper: [1.0, 0.5]}", "polygon: [[0.5, 0], [1.0, x], [1.0, 0.5]]"),
        "case.yaml:16: bodies[0].polygon[1] = [1.0, x]: entry 'x' is not a finite number"},
+      {replace(valid, "box: {lower: [0.5, 0], upper: [1.0, 0.5]}", "box: {lower: [0.5, 0], upper: [1.0, 0.5]}\n    k0: 0.5"),
+       "bodies[0].k0: is only used with initial_stress: geostatic"},
+      {replace(valid, "box: {lower: [0.5, 0], upper: [1.0, 0.5]}", "box: {lower: [0.5, 0], upper: [1.0, 0.5]}\n    initial_stress: lithostatic"),
+       "bodies[0].initial_stress = lithostatic: must be one of: none, geostatic"},
+      {replace(replace(valid, "gravity: [0, -9.81]", "gravity: [-9.81, 0]"), "box: {lower: [0.5, 0], upper: [1.0, 0.5]}",
+               "box: {lower: [0.5, 0], upper: [1.0, 0.5]}\n    initial_stress: geostatic"),
+       "bodies[0].initial_stress = geostatic: needs gravity pointing down the last axis"},
       {"grid: [1, 2\n", "case.yaml:2: YAML syntax error"},
       {"", "the case file must be a YAML map"},
       // A key given twice: YAML would keep the first value without a word.

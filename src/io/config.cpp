@@ -421,6 +421,16 @@ CaseConfig parse_root(YamlSection& root) {
                  spacing.str() + " m)");
     }
     bc.velocity = b.has("velocity") ? b.reals("velocity", c.dim) : std::vector<double>(c.dim, 0.0);
+    bc.geostatic = b.choice("initial_stress", {"none", "geostatic"}, "none") == "geostatic";
+    if (b.has("k0")) {
+      if (!bc.geostatic) b.fail("k0", "is only used with initial_stress: geostatic");
+      bc.k0 = b.real("k0");
+      if (!(bc.k0 > 0.0 && bc.k0 <= 5.0)) b.fail_value("k0", std::to_string(bc.k0), "must be in (0, 5]");
+    }
+    if (bc.geostatic)
+      for (int a = 0; a + 1 < c.dim; ++a)
+        if (c.gravity[a] != 0.0 || !(c.gravity[c.dim - 1] < 0.0))
+          b.fail_value("initial_stress", "geostatic", "needs gravity pointing down the last axis (gravity = [0, -g] or [0, 0, -g])");
     b.finish();
     c.bodies.push_back(std::move(bc));
   }

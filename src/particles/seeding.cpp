@@ -21,7 +21,8 @@ bool inside_polygon(const std::vector<std::array<double, 2>>& polygon, double x,
 
 template <int dim>
 std::int64_t seed_box_body(Particles<dim>& particles, const Grid<dim>& grid, const BodyConfig& body,
-                           const Material& material, int body_index, std::int64_t first_id) {
+                           const Material& material, int body_index, std::int64_t first_id,
+                           double gravity_magnitude) {
   const double h = grid.cell_size();
   const int ppc = body.particles_per_cell;
   const double spacing = h / ppc;
@@ -41,6 +42,10 @@ std::int64_t seed_box_body(Particles<dim>& particles, const Grid<dim>& grid, con
 
   std::vector<std::int64_t> mine;
   std::array<long, dim> s{};
+  // Top of the body over each lattice column (index of the highest point inside), for geostatic stresses.
+  std::int64_t columns = 1;
+  for (int a = 0; a + 1 < dim; ++a) columns *= count[a];
+  std::vector<long> top(body.geostatic ? columns : 0, -1);
   for (std::int64_t id = 0; id < total; ++id) {
     std::int64_t r = id;
     Vector<dim> x;
@@ -50,6 +55,10 @@ std::int64_t seed_box_body(Particles<dim>& particles, const Grid<dim>& grid, con
       x[a] = grid.lower()[a] + (s[a] + 0.5) * spacing;
     }
     if (!body.polygon.empty() && !inside_polygon(body.polygon, x[0], x[dim - 1])) continue;
+    if (body.geostatic) {
+      long& t = top[id % columns];
+      t = std::max(t, s[dim - 1]);
+    }
     if (grid.owner_rank(x) == rank) mine.push_back(id);
   }
 
@@ -76,6 +85,16 @@ std::int64_t seed_box_body(Particles<dim>& particles, const Grid<dim>& grid, con
       defgrad[dim * dim * p + i] = (i % (dim + 1) == 0) ? 1.0 : 0.0;
     }
     for (int i = 0; i < 6; ++i) stress[6 * p + i] = 0.0;
+    if (body.geostatic) {
+      // Lithostatic load of the material above, K0 laterally (tension positive).
+      const long level = first[dim - 1] + mine[k] / columns;
+      // From the upper edge of the column's top particle down to this particle's centre.
+      const double depth = (top[mine[k] % columns] - level + 0.5) * spacing;
+      const Tangent& C = material.elastic_stiffness();
+      const double k0 = body.k0 > 0 ? body.k0 : C(0, 1) / C(0, 0);  // nu / (1 - nu) for isotropic elasticity
+      const double vertical = -material.density() * gravity_magnitude * depth;
+      for (int i = 0; i < 3; ++i) stress[6 * p + i] = (i == dim - 1 ? 1.0 : k0) * vertical;
+    }
     for (int i = 0; i < max_state_size; ++i) state[max_state_size * p + i] = 0.0;
     plastic[p] = 0.0;
     separation[p] = 0.0;
@@ -89,8 +108,8 @@ std::int64_t seed_box_body(Particles<dim>& particles, const Grid<dim>& grid, con
 }
 
 template std::int64_t seed_box_body<2>(Particles<2>&, const Grid<2>&, const BodyConfig&, const Material&, int,
-                                       std::int64_t);
+                                       std::int64_t, double);
 template std::int64_t seed_box_body<3>(Particles<3>&, const Grid<3>&, const BodyConfig&, const Material&, int,
-                                       std::int64_t);
+                                       std::int64_t, double);
 
 }  // namespace talus

@@ -53,6 +53,11 @@ struct BodyConfig {
   std::vector<std::array<double, 2>> polygon;  // vertices in order; empty for a box
   int particles_per_cell = 2;  // per axis
   std::vector<double> velocity;
+  // Initial stress: none, or geostatic (sigma_v = -rho |g| depth below the
+  // body's top above the particle, sigma_h = k0 sigma_v; gravity along the
+  // last axis). k0 < 0: nu / (1 - nu) from the material's elastic stiffness.
+  bool geostatic = false;
+  double k0 = -1.0;
 };
 
 struct TransferConfig {

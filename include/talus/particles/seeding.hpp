@@ -13,8 +13,12 @@ namespace talus {
 // Every rank creates the particles it owns, so no particle crosses the network.
 // Particle ids are the lattice order offset by `first_id`, identical for any
 // number of ranks. Returns the number of lattice points of the body (all ranks).
+// With body.geostatic, the particles start with sigma_v = -rho g (top - y),
+// top being the upper edge of the body's topmost particle in the same lattice
+// column, and sigma_h = k0 sigma_v on the other normal components.
 template <int dim>
 std::int64_t seed_box_body(Particles<dim>& particles, const Grid<dim>& grid, const BodyConfig& body,
-                           const Material& material, int body_index, std::int64_t first_id);
+                           const Material& material, int body_index, std::int64_t first_id,
+                           double gravity_magnitude = 0.0);
 
 }  // namespace talus

@@ -1,0 +1,161 @@
+#!/usr/bin/python3
+"""Time series of a talus run: front (run-out), height, kinetic and potential
+energy at every output, as a CSV table and a PNG with three panels.
+
+    /usr/bin/python3 scripts/plot_series.py output/column_collapse_psi0/particles.pvd \
+        --out column_series.png --title "column collapse, psi = 0"
+
+Reads the .pvd series with VTK's XML reader and draws with matplotlib (Agg,
+no display needed). For every output (row of the CSV):
+
+  time                     s      the output's time in the .pvd
+  particles                -      number of particles
+  mass                     kg     sum of the particle masses (2D: kg per m of thickness)
+  front                    m      largest particle-centre coordinate along --x-axis
+  front99                  m      the coordinate along --x-axis below which --mass-fraction
+                                  (default 99 %) of the mass lies (the bulk front)
+  height                   m      largest particle-centre coordinate along --vertical-axis
+  kinetic_energy           J      sum of 1/2 m |v|^2 (2D: J per m of thickness)
+  potential_energy_change  J      sum of m g h minus its value at the first output,
+                                  h along --vertical-axis, g = --gravity (2D: J per m)
+  max_speed                m/s    largest particle speed |v|
+
+Positions are particle centres: add half the particle spacing to compare
+front and height with the edge of the body. The vertical axis is y when every
+z coordinate is 0 (2D output) and z otherwise (3D), unless --vertical-axis
+says otherwise. Gravity is taken to point down that axis.
+
+No wall-force series: the force of the flow on an obstacle needs contact
+with rigid obstacles, which talus does not have yet (issue 4), so this script
+writes none rather than an estimate.
+"""
+import argparse
+import csv
+import os
+import sys
+import xml.etree.ElementTree as ET
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import vtk  # noqa: E402
+from vtk.util.numpy_support import vtk_to_numpy  # noqa: E402
+
+AXES = {"x": 0, "y": 1, "z": 2}
+COLUMNS = ["time", "particles", "mass", "front", "front99", "height", "kinetic_energy",
+           "potential_energy_change", "max_speed"]
+
+
+def series(pvd):
+    """(time, file) pairs of a .pvd collection, sorted by time."""
+    root = ET.parse(pvd).getroot()
+    base = os.path.dirname(pvd)
+    items = [(float(d.get("timestep")), os.path.join(base, d.get("file"))) for d in root.iter("DataSet")]
+    if not items:
+        sys.exit(f"plot_series: {pvd} lists no data sets")
+    return sorted(items)
+
+
+def read(path):
+    """Positions (n x 3), masses (n) and velocities (n x 3) of one output."""
+    reader = vtk.vtkXMLPUnstructuredGridReader() if path.endswith(".pvtu") else vtk.vtkXMLUnstructuredGridReader()
+    reader.SetFileName(path)
+    reader.Update()
+    grid = reader.GetOutput()
+    if grid.GetNumberOfPoints() == 0:
+        sys.exit(f"plot_series: {path} has no particles")
+    arrays = []
+    for name in ("mass", "velocity"):
+        array = grid.GetPointData().GetArray(name)
+        if array is None:
+            sys.exit(f"plot_series: {path} has no point array '{name}'")
+        arrays.append(vtk_to_numpy(array).astype(float))
+    return vtk_to_numpy(grid.GetPoints().GetData()).astype(float), arrays[0], arrays[1]
+
+
+def bulk_front(x, m, fraction):
+    """The coordinate x below which `fraction` of the mass m lies (the
+    particle at which the cumulative mass, sorted by x, reaches it)."""
+    order = np.argsort(x, kind="stable")
+    cumulative = np.cumsum(m[order]) / m.sum()
+    k = min(int(np.searchsorted(cumulative, fraction - 1e-12)), x.size - 1)
+    return float(x[order[k]])
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("pvd")
+    p.add_argument("--out", default="series.png")
+    p.add_argument("--csv", default=None, help="the table (default: --out with .csv instead of .png)")
+    p.add_argument("--x-axis", choices=AXES, default="x", help="direction of the run-out (default x)")
+    p.add_argument("--vertical-axis", choices=AXES, default=None,
+                   help="direction of height and potential energy (default: y for 2D output, z for 3D)")
+    p.add_argument("--gravity", type=float, default=9.81, help="g in m/s^2, pointing down the vertical axis")
+    p.add_argument("--mass-fraction", type=float, default=0.99, help="mass fraction of the bulk front (default 0.99)")
+    p.add_argument("--title", default=None)
+    p.add_argument("--dpi", type=int, default=100)
+    a = p.parse_args()
+    if not 0.0 < a.mass_fraction <= 1.0:
+        sys.exit("plot_series: --mass-fraction must be in (0, 1]")
+
+    frames = [(t, *read(path)) for t, path in series(a.pvd)]
+    three_d = any(np.any(x[:, 2] != 0.0) for _, x, _, _ in frames)
+    vertical = AXES[a.vertical_axis] if a.vertical_axis else (2 if three_d else 1)
+    along = AXES[a.x_axis]
+    if along == vertical:
+        sys.exit("plot_series: --x-axis and --vertical-axis must differ")
+
+    rows = []
+    potential0 = None
+    for t, x, m, v in frames:
+        potential = a.gravity * float(np.dot(m, x[:, vertical]))
+        if potential0 is None:
+            potential0 = potential
+        speed2 = (v**2).sum(axis=1)
+        rows.append({"time": t, "particles": x.shape[0], "mass": float(m.sum()),
+                     "front": float(x[:, along].max()), "front99": bulk_front(x[:, along], m, a.mass_fraction),
+                     "height": float(x[:, vertical].max()), "kinetic_energy": 0.5 * float(np.dot(m, speed2)),
+                     "potential_energy_change": potential - potential0, "max_speed": float(np.sqrt(speed2.max()))})
+
+    csv_path = a.csv or os.path.splitext(a.out)[0] + ".csv"
+    with open(csv_path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=COLUMNS)
+        w.writeheader()
+        for r in rows:
+            w.writerow({k: (repr(r[k]) if isinstance(r[k], float) else r[k]) for k in COLUMNS})
+
+    per_m = "" if three_d else "/m"
+    names = "xyz"
+    t = [r["time"] for r in rows]
+    fig, axes = plt.subplots(3, 1, figsize=(7, 8), sharex=True)
+    ax = axes[0]
+    ax.plot(t, [r["front"] for r in rows], "o-", markersize=3, label=f"front (max {names[along]})")
+    ax.plot(t, [r["front99"] for r in rows], "s--", markersize=3,
+            label=f"bulk front ({100 * a.mass_fraction:g} % of the mass below)")
+    ax.set_ylabel(f"front: {names[along]} (m)")
+    ax.legend(fontsize=8)
+    ax = axes[1]
+    ax.plot(t, [r["height"] for r in rows], "o-", markersize=3, color="C2")
+    ax.set_ylabel(f"height: max {names[vertical]} (m)")
+    ax = axes[2]
+    ax.plot(t, [r["kinetic_energy"] for r in rows], "o-", markersize=3, color="C3", label="kinetic energy")
+    ax.plot(t, [-r["potential_energy_change"] for r in rows], "s--", markersize=3, color="C4",
+            label="potential energy released (−ΔPE)")
+    ax.set_ylabel(f"energy (J{per_m})")
+    ax.set_xlabel("time (s)")
+    ax.legend(fontsize=8)
+    for ax in axes:
+        ax.grid(alpha=0.3)
+        ax.tick_params(labelsize=8)
+    if a.title:
+        fig.suptitle(a.title)
+    fig.tight_layout()
+    fig.savefig(a.out, dpi=a.dpi)
+    print(f"plot_series: wrote {a.out} and {csv_path} ({len(rows)} outputs, {'3D' if three_d else '2D'}, "
+          f"vertical axis {names[vertical]})")
+
+
+if __name__ == "__main__":
+    main()
