@@ -110,3 +110,47 @@ r.Update()
 assert r.GetOutput().GetNumberOfPoints() == 800, r.GetOutput().GetNumberOfPoints()
 print("cli ok: interrupted and restarted on 2 ranks,", len(times), "outputs from 0 to", times[-1])
 PY
+
+# A known non-zero state read back from the VTK files: the elastic column
+# seeded with a geostatic stress, output at t = 0 only (time.end = one step).
+sed -e "s#directory: .*#directory: $work/geo#" -e "s#end: .*#end: 0.005#" \
+    -e "s#particles_per_cell: 2#particles_per_cell: 2\n    initial_stress: geostatic#" \
+    "$repo/inputs/elastic_column.yaml" > geo.yaml
+"$talus" run geo.yaml > geo.log
+/usr/bin/python3 - "$work/geo" <<'PY'
+import sys, xml.etree.ElementTree as ET
+import numpy as np
+import vtk
+from vtk.util.numpy_support import vtk_to_numpy
+out = sys.argv[1]
+first = list(ET.parse(out + "/particles.pvd").getroot().iter("DataSet"))[0]
+assert float(first.get("timestep")) == 0.0
+r = vtk.vtkXMLPUnstructuredGridReader()
+r.SetFileName(out + "/" + first.get("file"))
+r.Update()
+g = r.GetOutput()
+pd = g.GetPointData()
+a = lambda name: vtk_to_numpy(pd.GetArray(name))
+x = vtk_to_numpy(g.GetPoints().GetData())
+n = g.GetNumberOfPoints()
+rho, grav, nu, H, d = 2000.0, 9.81, 0.3, 1.0, 0.025
+sv = -rho * grav * (H - x[:, 1])            # lithostatic, at the particle centres
+k0 = nu / (1 - nu)
+s = a("stress")                              # ParaView order XX YY ZZ XY YZ XZ, Cauchy
+scale = rho * grav * H
+assert np.abs(s[:, 1] - sv).max() < 1e-9 * scale, np.abs(s[:, 1] - sv).max()
+assert np.abs(s[:, 0] - k0 * sv).max() < 1e-9 * scale
+assert np.abs(s[:, 2] - k0 * sv).max() < 1e-9 * scale
+assert np.abs(s[:, 3:]).max() == 0.0
+p = (1 + 2 * k0) * sv / 3
+assert np.abs(a("mean_stress") - p).max() < 1e-9 * scale
+q = np.abs(1 - k0) * np.abs(sv)              # von Mises of (k0, 1, k0) sigma_v
+assert np.abs(a("deviatoric_stress") - q).max() < 1e-9 * scale
+assert np.abs(a("volume") - d * d).max() < 1e-15
+assert np.abs(a("mass") - rho * d * d).max() < 1e-12
+assert np.all(a("cumulative_plastic_strain") == 0.0) and np.all(a("separation_strain") == 0.0)
+assert np.all(a("velocity") == 0.0) and np.all(a("displacement") == 0.0)
+assert np.all(a("material_id") == 0) and np.all(a("body_id") == 0)
+assert sorted(a("particle_id").tolist()) == list(range(n))
+print("cli ok: geostatic state read back,", n, "particles, sigma_v at the base", sv.min())
+PY
