@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "talus/io/yaml_section.hpp"
+#include "talus/materials/parameters.hpp"
 
 namespace talus {
 
@@ -67,17 +68,10 @@ DruckerPrager::DruckerPrager(const DruckerPragerParameters& p)
 }
 
 std::unique_ptr<Material> DruckerPrager::from_yaml(YamlSection& y) {
-  const double rho = y.positive("density", y.real("density"));
-  const double E = y.positive("youngs_modulus", y.real("youngs_modulus"));
-  const double nu = y.real("poisson_ratio");
-  if (!(nu >= 0.0 && nu < 0.5)) y.fail_value("poisson_ratio", std::to_string(nu), "must be in [0, 0.5)");
-  const double phi = y.real("friction_angle");
-  if (!(phi > 0.0 && phi < 90.0)) y.fail_value("friction_angle", std::to_string(phi), "must be in (0, 90) degrees");
-  const double psi = y.real("dilatancy_angle", 0.0);
-  if (!(psi >= 0.0 && psi <= phi))
-    y.fail_value("dilatancy_angle", std::to_string(psi), "must be in [0, friction_angle] degrees");
-  const double c = y.real("cohesion", 0.0);
-  if (c < 0) y.fail_value("cohesion", std::to_string(c), "must be >= 0");
+  const ElasticParameters e = read_elastic_parameters(y);
+  const FrictionParameters f = read_friction_parameters(y);
+  const double rho = e.density, E = e.youngs_modulus, nu = e.poisson_ratio;
+  const double phi = f.friction_angle, psi = f.dilatancy_angle, c = f.cohesion;
   const double H = y.real("hardening_modulus", 0.0);
   const std::string match = y.choice("mohr_coulomb_match", {"outer", "inner", "plane_strain"}, "plane_strain");
   DruckerPragerParameters par = drucker_prager_parameters(rho, E, nu, phi, psi, c, H,

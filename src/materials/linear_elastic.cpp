@@ -1,6 +1,7 @@
 #include "talus/materials/linear_elastic.hpp"
 
 #include "talus/io/yaml_section.hpp"
+#include "talus/materials/parameters.hpp"
 
 namespace talus {
 
@@ -23,12 +24,8 @@ LinearElastic::LinearElastic(double density, double youngs_modulus, double poiss
       stiffness_(isotropic_stiffness(youngs_modulus, poisson_ratio)) {}
 
 std::unique_ptr<Material> LinearElastic::from_yaml(YamlSection& p) {
-  const double rho = p.positive("density", p.real("density"));
-  const double E = p.positive("youngs_modulus", p.real("youngs_modulus"));
-  const double nu = p.real("poisson_ratio");
-  if (!(nu >= 0.0 && nu < 0.5))
-    p.fail_value("poisson_ratio", std::to_string(nu), "must be in [0, 0.5)");
-  return std::make_unique<LinearElastic>(rho, E, nu);
+  const ElasticParameters e = read_elastic_parameters(p);
+  return std::make_unique<LinearElastic>(e.density, e.youngs_modulus, e.poisson_ratio);
 }
 
 void LinearElastic::update(const Voigt& rotated_stress, const Voigt& strain_increment, const double*, double*,

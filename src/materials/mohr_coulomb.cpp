@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "talus/io/yaml_section.hpp"
+#include "talus/materials/parameters.hpp"
 
 namespace talus {
 
@@ -58,18 +59,10 @@ MohrCoulomb::MohrCoulomb(const MohrCoulombParameters& p)
 }
 
 std::unique_ptr<Material> MohrCoulomb::from_yaml(YamlSection& y) {
-  const double rho = y.positive("density", y.real("density"));
-  const double E = y.positive("youngs_modulus", y.real("youngs_modulus"));
-  const double nu = y.real("poisson_ratio");
-  if (!(nu >= 0.0 && nu < 0.5)) y.fail_value("poisson_ratio", std::to_string(nu), "must be in [0, 0.5)");
-  const double phi = y.real("friction_angle");
-  if (!(phi > 0.0 && phi < 90.0)) y.fail_value("friction_angle", std::to_string(phi), "must be in (0, 90) degrees");
-  const double psi = y.real("dilatancy_angle", 0.0);
-  if (!(psi >= 0.0 && psi <= phi))
-    y.fail_value("dilatancy_angle", std::to_string(psi), "must be in [0, friction_angle] degrees");
-  const double c = y.real("cohesion", 0.0);
-  if (!(c >= 0.0)) y.fail_value("cohesion", std::to_string(c), "must be >= 0");
-  return std::make_unique<MohrCoulomb>(mohr_coulomb_parameters(rho, E, nu, phi, psi, c));
+  const ElasticParameters e = read_elastic_parameters(y);
+  const FrictionParameters f = read_friction_parameters(y);
+  return std::make_unique<MohrCoulomb>(mohr_coulomb_parameters(e.density, e.youngs_modulus, e.poisson_ratio,
+                                                               f.friction_angle, f.dilatancy_angle, f.cohesion));
 }
 
 double MohrCoulomb::yield_function(const Voigt& stress) const {
