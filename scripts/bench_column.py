@@ -57,7 +57,6 @@ import statistics
 import subprocess
 import sys
 import time
-import xml.etree.ElementTree as ET
 
 import matplotlib
 
@@ -65,6 +64,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402  (after the backend choice)
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from bench_common import machine_busy_seconds, markdown_lines, table_lines  # noqa: E402
+from pvd import pvd_series  # noqa: E402
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -297,14 +297,6 @@ def _write(path, text):
 # ---------------------------------------------------------------- geometry
 
 
-def read_series(pvd_path):
-    """(time, file) of every output in a .pvd, in time order."""
-    root = ET.parse(pvd_path).getroot()
-    folder = os.path.dirname(pvd_path)
-    items = [(float(d.get("timestep")), os.path.join(folder, d.get("file"))) for d in root.iter("DataSet")]
-    return sorted(items)
-
-
 def extents(pvtu_path, mass_fraction=BULK_FRACTION):
     """(max x, max y, x below which mass_fraction of the mass lies, particle
     count) of the particle centres in a .pvtu."""
@@ -331,7 +323,7 @@ def measure(pvd_path, spacing):
     """Front L = max x + d/2, bulk front L_99 = (x below which 99 % of the
     mass lies) + d/2 and height H = max y + d/2 at every output time."""
     series = []
-    for t, path in read_series(pvd_path):
+    for t, path in pvd_series(pvd_path):
         xmax, ymax, xbulk, n = extents(path)
         series.append({"t": t, "front": xmax + 0.5 * spacing, "front99": xbulk + 0.5 * spacing,
                        "height": ymax + 0.5 * spacing, "max_x": xmax, "particles": n})

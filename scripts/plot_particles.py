@@ -12,7 +12,6 @@ used; its time is printed in the panel title.
 import argparse
 import os
 import sys
-import xml.etree.ElementTree as ET
 
 import matplotlib
 
@@ -21,15 +20,16 @@ import matplotlib.pyplot as plt  # noqa: E402
 import vtk  # noqa: E402
 from vtk.util.numpy_support import vtk_to_numpy  # noqa: E402
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from pvd import pvd_series  # noqa: E402
+
 
 def series(pvd):
     """(time, file) pairs of a .pvd collection, sorted by time."""
-    root = ET.parse(pvd).getroot()
-    base = os.path.dirname(pvd)
-    items = [(float(d.get("timestep")), os.path.join(base, d.get("file"))) for d in root.iter("DataSet")]
+    items = pvd_series(pvd)
     if not items:
         sys.exit(f"plot_particles: {pvd} lists no data sets")
-    return sorted(items)
+    return items
 
 
 def read(path, field):

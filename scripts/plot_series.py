@@ -33,7 +33,6 @@ import argparse
 import csv
 import os
 import sys
-import xml.etree.ElementTree as ET
 
 import matplotlib
 
@@ -43,6 +42,9 @@ import numpy as np  # noqa: E402
 import vtk  # noqa: E402
 from vtk.util.numpy_support import vtk_to_numpy  # noqa: E402
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from pvd import pvd_series  # noqa: E402
+
 AXES = {"x": 0, "y": 1, "z": 2}
 COLUMNS = ["time", "particles", "mass", "front", "front99", "height", "kinetic_energy",
            "potential_energy_change", "max_speed"]
@@ -50,12 +52,10 @@ COLUMNS = ["time", "particles", "mass", "front", "front99", "height", "kinetic_e
 
 def series(pvd):
     """(time, file) pairs of a .pvd collection, sorted by time."""
-    root = ET.parse(pvd).getroot()
-    base = os.path.dirname(pvd)
-    items = [(float(d.get("timestep")), os.path.join(base, d.get("file"))) for d in root.iter("DataSet")]
+    items = pvd_series(pvd)
     if not items:
         sys.exit(f"plot_series: {pvd} lists no data sets")
-    return sorted(items)
+    return items
 
 
 def read(path):
