@@ -49,11 +49,29 @@ Simulation<dim>::Simulation(const CaseConfig& config, MPI_Comm comm) : config_(c
   grid_ = std::make_unique<Grid<dim>>(comm, lo, hi, config.grid.cell_size, config.grid.shape);
   particles_ = std::make_unique<Particles<dim>>(*grid_);
   for (const auto& m : config.materials) materials_.push_back(m.law.get());
+  for (const ObstacleConfig& o : config.obstacles) obstacles_.emplace_back(o);
+  // A frictional face is a rigid half-plane on the face, its solid outside the grid.
+  const char* face_names[6] = {"x_min", "x_max", "y_min", "y_max", "z_min", "z_max"};
+  for (int f = 0; f < 2 * dim; ++f)
+    if (config.faces[f] == FaceCondition::frictional) {
+      ObstacleConfig face;
+      face.name = face_names[f];
+      face.shape = ObstacleShape::half_plane;
+      const int axis = f / 2;
+      face.point = f % 2 == 0 ? config.grid.lower : config.grid.upper;
+      face.normal.assign(dim, 0.0);
+      face.normal[axis] = f % 2 == 0 ? 1.0 : -1.0;
+      face.velocity.assign(dim, 0.0);
+      face.friction = config.face_contact[f].friction;
+      face.restitution = config.face_contact[f].restitution;
+      obstacles_.emplace_back(face);
+    }
+  obstacle_force_.assign(obstacles_.size(), Vector<dim>::Zero());
   std::int64_t next_id = 0;
   for (std::size_t b = 0; b < config.bodies.size(); ++b) {
     const BodyConfig& body = config.bodies[b];
     next_id += seed_box_body<dim>(*particles_, *grid_, body, *materials_[body.material], static_cast<int>(b), next_id,
-                                  -config.gravity[dim - 1]);
+                                  -config.gravity[dim - 1], obstacles_.empty() ? nullptr : &obstacles_);
   }
   double local_max = 0.0;
   {
@@ -87,9 +105,19 @@ StepReport Simulation<dim>::advance(double h) {
   active.build(*grid_, fields, mass_threshold_, config_.faces);
   report.active_points = active.global_count();
   last_system_size_ = active.global_count() * dim;
-  // 4. Freeze the committed particle state and 5. solve F(v) = 0 by Newton.
+  // 4. Contact candidates: active points whose predicted gap to an obstacle is closed.
+  const auto tc = std::chrono::steady_clock::now();
+  std::vector<ContactPoint<dim>> contacts =
+      find_contact_candidates(*grid_, fields, active, obstacles_, time_, h, config_.contact.gap_prediction);
+  report.contact_seconds = seconds_since(tc);
+  {
+    PetscInt local = static_cast<PetscInt>(contacts.size());
+    MPI_Allreduce(&local, &report.contact_points, 1, MPIU_INT, MPI_SUM, comm_);
+  }
+  // 5. Freeze the committed particle state and 6. solve momentum, plasticity
+  // and contact, F(v) = 0, by one semismooth Newton.
   MomentumSystem<dim> system(*grid_, *particles_, stencils, fields, active, materials_, gravity_, h,
-                             config_.time.theta);
+                             config_.time.theta, std::move(contacts));
   if (active.global_count() > 0) {
     report.newton = newton_->solve(system);
   } else {
@@ -97,13 +125,15 @@ StepReport Simulation<dim>::advance(double h) {
     report.newton.reason = "no active grid points";
   }
   report.solve_seconds = seconds_since(t1);
+  report.contact_seconds += system.contact_seconds();
   if (!report.newton.converged) return report;
+  record_contact_forces(system, h);
 
-  // 6. G2P: velocities, affine velocities, positions, deformation gradients.
+  // 7. G2P: velocities, affine velocities, positions, deformation gradients.
   const auto t2 = std::chrono::steady_clock::now();
   grid_to_particles(*particles_, stencils, system.end_velocity(), system.start_velocity(), fields.velocity, h,
                     config_.time.theta, config_.transfer);
-  // 7. Commit the material state: sigma^{n+1} at the converged velocities.
+  // 8. Commit the material state: sigma^{n+1} at the converged velocities.
   {
     DM sw = particles_->swarm();
     FieldView<PetscReal> s(sw, field::stress), state(sw, field::material_state),
@@ -127,6 +157,24 @@ StepReport Simulation<dim>::advance(double h) {
   time_ += h;
   report.converged = true;
   return report;
+}
+
+template <int dim>
+void Simulation<dim>::record_contact_forces(const MomentumSystem<dim>& system, double h) {
+  nodal_contacts_.clear();
+  std::vector<double> local(obstacles_.size() * dim, 0.0), total(local.size(), 0.0);
+  const auto& contacts = system.contacts();
+  for (std::size_t c = 0; c < contacts.size(); ++c) {
+    const Vector<dim> force = system.contact_impulses()[c] / h;
+    for (int a = 0; a < dim; ++a) local[contacts[c].obstacle * dim + a] += force[a];
+    nodal_contacts_.push_back(
+        {grid_->point_position(grid_->global_index(contacts[c].point)), force, contacts[c].obstacle,
+         system.contact_maps()[c].region});
+  }
+  if (!obstacles_.empty())
+    MPI_Allreduce(local.data(), total.data(), static_cast<int>(local.size()), MPI_DOUBLE, MPI_SUM, comm_);
+  for (std::size_t o = 0; o < obstacles_.size(); ++o)
+    obstacle_force_[o] = Eigen::Map<const Vector<dim>>(total.data() + dim * o);
 }
 
 template <int dim>

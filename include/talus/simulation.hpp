@@ -19,6 +19,8 @@ struct StepReport {
   PetscInt active_points = 0;     // global
   double transfer_seconds = 0;    // stencils + P2G + G2P
   double solve_seconds = 0;       // active set + Newton
+  PetscInt contact_points = 0;    // global number of contact candidates
+  double contact_seconds = 0;     // detection + natural-map rows (part of solve_seconds)
 };
 
 struct RunSummary {
@@ -54,8 +56,24 @@ class Simulation {
   // Introspection of the last step's system (tests and benchmarks).
   PetscInt last_system_size() const { return last_system_size_; }
 
+  // The rigid obstacles: the case's `obstacles`, then one half-plane per
+  // frictional domain face (named x_min, ..., z_max).
+  const std::vector<Obstacle<dim>>& obstacles() const { return obstacles_; }
+  // Mean contact force on each obstacle over the last accepted step,
+  // sum_i r_i / h (N, per unit thickness in 2D), summed over all ranks; the
+  // force the body exerts on the obstacle is its negative.
+  const std::vector<Vector<dim>>& obstacle_forces() const { return obstacle_force_; }
+  // Contact points of the last accepted step on this rank: position, force r_i / h.
+  struct NodalContact {
+    Vector<dim> position, force;
+    int obstacle;
+    ConeRegion region;
+  };
+  const std::vector<NodalContact>& nodal_contacts() const { return nodal_contacts_; }
+
  private:
   void check_finite() const;
+  void record_contact_forces(const MomentumSystem<dim>& system, double h);
   void keep_particles_inside();
 
   CaseConfig config_;
@@ -64,6 +82,9 @@ class Simulation {
   std::unique_ptr<Particles<dim>> particles_;
   std::unique_ptr<NewtonSolver<dim>> newton_;
   std::vector<const Material*> materials_;
+  std::vector<Obstacle<dim>> obstacles_;
+  std::vector<Vector<dim>> obstacle_force_;
+  std::vector<NodalContact> nodal_contacts_;
   Vector<dim> gravity_;
   double mass_threshold_ = 0;
   double time_ = 0;

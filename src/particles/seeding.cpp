@@ -22,7 +22,7 @@ bool inside_polygon(const std::vector<std::array<double, 2>>& polygon, double x,
 template <int dim>
 std::int64_t seed_box_body(Particles<dim>& particles, const Grid<dim>& grid, const BodyConfig& body,
                            const Material& material, int body_index, std::int64_t first_id,
-                           double gravity_magnitude) {
+                           double gravity_magnitude, const std::vector<Obstacle<dim>>* obstacles) {
   const double h = grid.cell_size();
   const int ppc = body.particles_per_cell;
   const double spacing = h / ppc;
@@ -55,6 +55,11 @@ std::int64_t seed_box_body(Particles<dim>& particles, const Grid<dim>& grid, con
       x[a] = grid.lower()[a] + (s[a] + 0.5) * spacing;
     }
     if (!body.polygon.empty() && !inside_polygon(body.polygon, x[0], x[dim - 1])) continue;
+    if (obstacles) {
+      bool buried = false;
+      for (const Obstacle<dim>& o : *obstacles) buried |= o.gap(x, 0.0).gap < 0.0;
+      if (buried) continue;
+    }
     if (body.geostatic) {
       long& t = top[id % columns];
       t = std::max(t, s[dim - 1]);
@@ -108,8 +113,8 @@ std::int64_t seed_box_body(Particles<dim>& particles, const Grid<dim>& grid, con
 }
 
 template std::int64_t seed_box_body<2>(Particles<2>&, const Grid<2>&, const BodyConfig&, const Material&, int,
-                                       std::int64_t, double);
+                                       std::int64_t, double, const std::vector<Obstacle<2>>*);
 template std::int64_t seed_box_body<3>(Particles<3>&, const Grid<3>&, const BodyConfig&, const Material&, int,
-                                       std::int64_t, double);
+                                       std::int64_t, double, const std::vector<Obstacle<3>>*);
 
 }  // namespace talus

@@ -1,6 +1,7 @@
 #include "talus/solver/momentum_system.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 
 namespace talus {
@@ -9,7 +10,8 @@ template <int dim>
 MomentumSystem<dim>::MomentumSystem(const Grid<dim>& grid, const Particles<dim>& particles,
                                     const std::vector<Stencil<dim>>& stencils, const GridFields<dim>& fields,
                                     const ActiveSet<dim>& active, const std::vector<const Material*>& materials,
-                                    const Vector<dim>& gravity, double h, double theta)
+                                    const Vector<dim>& gravity, double h, double theta,
+                                    std::vector<ContactPoint<dim>> contacts)
     : grid_(grid),
       stencils_(stencils),
       fields_(fields),
@@ -17,7 +19,10 @@ MomentumSystem<dim>::MomentumSystem(const Grid<dim>& grid, const Particles<dim>&
       materials_(materials),
       gravity_(gravity),
       h_(h),
-      theta_(theta) {
+      theta_(theta),
+      contacts_(std::move(contacts)) {
+  contact_impulse_.assign(contacts_.size(), Vector<dim>::Zero());
+  contact_map_.resize(contacts_.size());
   const PetscInt np = particles.local_count();
   DM sw = particles.swarm();
   FieldView<PetscReal> s(sw, field::stress), v0(sw, field::initial_volume);
@@ -56,6 +61,7 @@ MomentumSystem<dim>::MomentumSystem(const Grid<dim>& grid, const Particles<dim>&
 template <int dim>
 MomentumSystem<dim>::~MomentumSystem() {
   VecDestroy(&evaluated_at_);
+  VecDestroy(&contact_at_);
 }
 
 template <int dim>
@@ -168,6 +174,95 @@ void MomentumSystem<dim>::residual(Vec v, Vec F) {
   }
   TALUS_PETSC(VecRestoreArrayRead(v, &x));
   TALUS_PETSC(VecRestoreArray(F, &f));
+  if (!contacts_.empty()) contact_rows(v, F);
+}
+
+template <int dim>
+void MomentumSystem<dim>::contact_rows(Vec v, Vec F) {
+  const auto t0 = std::chrono::steady_clock::now();
+  PetscScalar* f;
+  const PetscScalar* x;
+  TALUS_PETSC(VecGetArray(F, &f));
+  TALUS_PETSC(VecGetArrayRead(v, &x));
+  for (std::size_t c = 0; c < contacts_.size(); ++c) {
+    const ContactPoint<dim>& cp = contacts_[c];
+    // The impulse the obstacle must supply: the momentum imbalance R_i(v).
+    const Vector<dim> r = Eigen::Map<const Vector<dim>>(f + cp.row);
+    const Vector<dim> u = Eigen::Map<const Vector<dim>>(x + cp.row) - cp.obstacle_velocity;
+    contact_impulse_[c] = r;
+    contact_map_[c] = natural_map<dim>(r, u, cp.normal, cp.friction, cp.restitution, cp.start_normal_velocity, cp.rho);
+    Eigen::Map<Vector<dim>>(f + cp.row) = contact_map_[c].value;
+  }
+  TALUS_PETSC(VecRestoreArrayRead(v, &x));
+  TALUS_PETSC(VecRestoreArray(F, &f));
+  if (!contact_at_) TALUS_PETSC(VecDuplicate(v, &contact_at_));
+  TALUS_PETSC(VecCopy(v, contact_at_));
+  contact_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+template <int dim>
+void MomentumSystem<dim>::contact_jacobian(Vec v, Mat J) {
+  PetscBool same = PETSC_FALSE;
+  if (contact_at_) TALUS_PETSC(VecEqual(v, contact_at_, &same));
+  if (!same) {
+    Vec F;
+    TALUS_PETSC(VecDuplicate(v, &F));
+    residual(v, F);
+    TALUS_PETSC(VecDestroy(&F));
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  PetscInt first;
+  TALUS_PETSC(VecGetOwnershipRange(v, &first, nullptr));
+  // Row block i of the assembled momentum Jacobian is dR_i/dv; the natural
+  // map's rows are (I - D) dR_i/dv, plus rho D du_hat/du on the diagonal block.
+  // MatGetRow works on owned rows only, which the contact points are.
+  std::vector<std::vector<PetscInt>> columns(contacts_.size());
+  std::vector<std::vector<double>> values(contacts_.size());
+  for (std::size_t c = 0; c < contacts_.size(); ++c) {
+    const PetscInt r0 = first + contacts_[c].row;
+    // Union of the columns of the block's rows (the block pattern is shared).
+    std::vector<PetscInt>& cols = columns[c];
+    std::vector<std::vector<std::pair<PetscInt, double>>> rows(dim);
+    for (int a = 0; a < dim; ++a) {
+      PetscInt ncols;
+      const PetscInt* cj;
+      const PetscScalar* vj;
+      TALUS_PETSC(MatGetRow(J, r0 + a, &ncols, &cj, &vj));
+      for (PetscInt k = 0; k < ncols; ++k) {
+        rows[a].emplace_back(cj[k], vj[k]);
+        cols.push_back(cj[k]);
+      }
+      TALUS_PETSC(MatRestoreRow(J, r0 + a, &ncols, &cj, &vj));
+    }
+    for (int a = 0; a < dim; ++a) cols.push_back(r0 + a);
+    std::sort(cols.begin(), cols.end());
+    cols.erase(std::unique(cols.begin(), cols.end()), cols.end());
+    const std::size_t nc = cols.size();
+    Eigen::MatrixXd block = Eigen::MatrixXd::Zero(dim, static_cast<Eigen::Index>(nc));
+    for (int a = 0; a < dim; ++a)
+      for (const auto& [col, value] : rows[a]) {
+        const auto at = std::lower_bound(cols.begin(), cols.end(), col) - cols.begin();
+        block(a, at) += value;
+      }
+    Eigen::MatrixXd result = contact_map_[c].d_impulse * block;
+    for (int b = 0; b < dim; ++b) {
+      const auto at = std::lower_bound(cols.begin(), cols.end(), r0 + b) - cols.begin();
+      result.col(at) += contact_map_[c].d_velocity.col(b);
+    }
+    // Row-major for MatSetValues.
+    values[c].resize(dim * nc);
+    for (int a = 0; a < dim; ++a)
+      for (std::size_t k = 0; k < nc; ++k) values[c][a * nc + k] = result(a, static_cast<Eigen::Index>(k));
+  }
+  for (std::size_t c = 0; c < contacts_.size(); ++c) {
+    PetscInt rows[3];
+    for (int a = 0; a < dim; ++a) rows[a] = first + contacts_[c].row + a;
+    TALUS_PETSC(MatSetValues(J, dim, rows, static_cast<PetscInt>(columns[c].size()), columns[c].data(),
+                             values[c].data(), INSERT_VALUES));
+  }
+  TALUS_PETSC(MatAssemblyBegin(J, MAT_FINAL_ASSEMBLY));
+  TALUS_PETSC(MatAssemblyEnd(J, MAT_FINAL_ASSEMBLY));
+  contact_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
 template <int dim>
@@ -253,6 +348,7 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
     }
   TALUS_PETSC(MatAssemblyBegin(J, MAT_FINAL_ASSEMBLY));
   TALUS_PETSC(MatAssemblyEnd(J, MAT_FINAL_ASSEMBLY));
+  if (!contacts_.empty()) contact_jacobian(v, J);
 }
 
 template <int dim>
@@ -350,6 +446,16 @@ double MomentumSystem<dim>::momentum_scale() const {
 template <int dim>
 void MomentumSystem<dim>::finish(Vec v) {
   if (!evaluated_at(v)) evaluate_particles(v);
+  // The impulses at the converged velocities (SNES's last residual is
+  // normally there already).
+  PetscBool same = PETSC_FALSE;
+  if (contact_at_) TALUS_PETSC(VecEqual(v, contact_at_, &same));
+  if (!contacts_.empty() && !same) {
+    Vec F;
+    TALUS_PETSC(VecDuplicate(v, &F));
+    residual(v, F);
+    TALUS_PETSC(VecDestroy(&F));
+  }
 }
 
 template class MomentumSystem<2>;

@@ -6,12 +6,16 @@
 #include <utility>
 #include <vector>
 
+#include "talus/contact/obstacle.hpp"
 #include "talus/materials/material.hpp"
 #include "talus/shape/shape_functions.hpp"
 
 namespace talus {
 
-enum class FaceCondition { free, slip, fixed };
+// free: no condition; slip: zero normal velocity; fixed: zero velocity;
+// frictional: Coulomb contact with the face as a rigid half-plane (the
+// face's friction and restitution in CaseConfig::face_contact).
+enum class FaceCondition { free, slip, fixed, frictional };
 enum class TransferScheme { apic, flip };
 
 struct GridConfig {
@@ -60,6 +64,18 @@ struct BodyConfig {
   double k0 = -1.0;
 };
 
+// Contact detection (docs/contact.md): a grid point is a contact candidate
+// when g + gap_prediction * h * min(u_N^n, 0) <= 0 (Moreau-Jean's predicted
+// gap, gamma in the seminar).
+struct ContactConfig {
+  double gap_prediction = 0.5;
+};
+
+struct FaceContact {
+  double friction = 0.0;
+  double restitution = 0.0;
+};
+
 struct TransferConfig {
   TransferScheme scheme = TransferScheme::apic;
   double flip_blend = 0.99;  // FLIP fraction; 0 is PIC
@@ -83,6 +99,9 @@ struct CaseConfig {
   std::vector<BodyConfig> bodies;
   std::array<FaceCondition, 6> faces{FaceCondition::slip, FaceCondition::slip, FaceCondition::slip,
                                      FaceCondition::slip, FaceCondition::slip, FaceCondition::slip};
+  std::array<FaceContact, 6> face_contact{};  // for frictional faces
+  std::vector<ObstacleConfig> obstacles;
+  ContactConfig contact;
   TransferConfig transfer;
   SolverConfig solver;
 };

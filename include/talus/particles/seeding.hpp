@@ -2,6 +2,9 @@
 // Filling bodies with material points.
 #include <cstdint>
 
+#include <vector>
+
+#include "talus/contact/obstacle.hpp"
 #include "talus/io/config.hpp"
 #include "talus/particles/particles.hpp"
 
@@ -16,9 +19,11 @@ namespace talus {
 // With body.geostatic, the particles start with sigma_v = -rho g (top - y),
 // top being the upper edge of the body's topmost particle in the same lattice
 // column, and sigma_h = k0 sigma_v on the other normal components.
+// Lattice points inside an obstacle (negative gap at t = 0) are left out, so
+// a box body placed on a terrain is cut by it (docs/contact.md).
 template <int dim>
 std::int64_t seed_box_body(Particles<dim>& particles, const Grid<dim>& grid, const BodyConfig& body,
                            const Material& material, int body_index, std::int64_t first_id,
-                           double gravity_magnitude = 0.0);
+                           double gravity_magnitude = 0.0, const std::vector<Obstacle<dim>>* obstacles = nullptr);
 
 }  // namespace talus

@@ -13,10 +13,21 @@
 // The Jacobian is m_i I + h theta^2 sum_p V_p grad N_i . A_p . grad N_j, with
 // A_p = d sigma^{n+1} / d L_p assembled from the material's consistent tangent
 // and the derivative of the Jaumann rotation, so Newton is exact.
+//
+// Frictional contact (docs/contact.md): at a contact candidate i the impulse
+// the obstacle must give is the momentum imbalance R_i(v) (the row above), so
+// the row is replaced by the natural map of the Coulomb cone complementarity
+//   Phi_i(v) = R_i(v) - P_K(R_i(v) - rho_i u_hat_i(v)) = 0,
+// with r_i = R_i(v) condensed: contact adds no unknowns, and its Jacobian rows
+// are (I - D_i) dR_i/dv + rho_i D_i du_hat_i/dv_i (D_i the projection's
+// generalized derivative). One semismooth Newton solves momentum,
+// plasticity and contact together.
 #include <petscmat.h>
 
 #include <vector>
 
+#include "talus/contact/coulomb_cone.hpp"
+#include "talus/contact/contact_set.hpp"
 #include "talus/materials/material.hpp"
 #include "talus/solver/active_set.hpp"
 
@@ -30,7 +41,8 @@ class MomentumSystem {
 
   MomentumSystem(const Grid<dim>& grid, const Particles<dim>& particles, const std::vector<Stencil<dim>>& stencils,
                  const GridFields<dim>& fields, const ActiveSet<dim>& active,
-                 const std::vector<const Material*>& materials, const Vector<dim>& gravity, double h, double theta);
+                 const std::vector<const Material*>& materials, const Vector<dim>& gravity, double h, double theta,
+                 std::vector<ContactPoint<dim>> contacts = {});
   ~MomentumSystem();
   MomentumSystem(const MomentumSystem&) = delete;
   MomentumSystem& operator=(const MomentumSystem&) = delete;
@@ -50,10 +62,18 @@ class MomentumSystem {
   const std::vector<double>& end_state() const { return state_end_; }  // max_state_size per particle
   const std::vector<Voigt>& plastic_strain_increment() const { return plastic_increment_; }
   const std::vector<double>& end_separation() const { return separation_end_; }
+  // Contact candidates and, after finish(), their impulses r_i (N s) and
+  // regions (sticking = inside, sliding = boundary, separating = polar).
+  const std::vector<ContactPoint<dim>>& contacts() const { return contacts_; }
+  const std::vector<Vector<dim>>& contact_impulses() const { return contact_impulse_; }
+  const std::vector<NaturalMap<dim>>& contact_maps() const { return contact_map_; }
+  double contact_seconds() const { return contact_seconds_; }  // time spent in the contact rows
 
  private:
   void evaluate_particles(Vec v);
   bool evaluated_at(Vec v) const;
+  void contact_rows(Vec v, Vec F);      // replaces the contact candidates' rows of F by the natural map
+  void contact_jacobian(Vec v, Mat J);  // the same on the assembled Jacobian
 
   const Grid<dim>& grid_;
   const std::vector<Stencil<dim>>& stencils_;
@@ -76,6 +96,12 @@ class MomentumSystem {
   std::vector<double> state_end_, separation_end_;
   std::vector<StressTangent> tangent_;
   Vec evaluated_at_ = nullptr;  // the v of the last evaluation
+
+  std::vector<ContactPoint<dim>> contacts_;
+  std::vector<Vector<dim>> contact_impulse_;
+  std::vector<NaturalMap<dim>> contact_map_;
+  Vec contact_at_ = nullptr;  // the v of the last contact evaluation
+  double contact_seconds_ = 0.0;
 };
 
 }  // namespace talus
