@@ -108,7 +108,7 @@ StepReport Simulation<dim>::advance(double h) {
   // 4. Contact candidates: active points whose predicted gap to an obstacle is closed.
   const auto tc = std::chrono::steady_clock::now();
   std::vector<ContactPoint<dim>> contacts =
-      find_contact_candidates(*grid_, fields, active, obstacles_, time_, h, config_.contact.gap_prediction);
+      find_contact_candidates(*grid_, *particles_, stencils, fields, active, obstacles_, time_, h, config_.contact.gap_prediction);
   report.contact_seconds = seconds_since(tc);
   {
     PetscInt local = static_cast<PetscInt>(contacts.size());
@@ -226,6 +226,35 @@ void Simulation<dim>::keep_particles_inside() {
                           std::to_string(time_) + "; enlarge the grid box or make that face slip or fixed");
 }
 
+template <int dim>
+std::vector<ContactSample<dim>> Simulation<dim>::contact_samples() const {
+  std::vector<ContactSample<dim>> samples;
+  samples.reserve(nodal_contacts_.size());
+  for (const NodalContact& c : nodal_contacts_) {
+    // 0 sticking (inside the cone), 1 separating (polar cone: r = 0), 2 sliding (on its boundary).
+    const int state = c.region == ConeRegion::inside ? 0 : c.region == ConeRegion::polar ? 1 : 2;
+    samples.push_back({c.position, Vector<dim>(-c.force), c.obstacle, state});
+  }
+  return samples;
+}
+
+template <int dim>
+std::vector<std::string> Simulation<dim>::force_columns() const {
+  std::vector<std::string> columns;
+  const char* axes[3] = {"_fx", "_fy", "_fz"};
+  for (const Obstacle<dim>& o : obstacles_)
+    for (int a = 0; a < dim; ++a) columns.push_back(o.name() + axes[a]);
+  return columns;
+}
+
+template <int dim>
+std::vector<double> Simulation<dim>::force_row() const {
+  std::vector<double> row;
+  for (const Vector<dim>& f : obstacle_force_)
+    for (int a = 0; a < dim; ++a) row.push_back(-f[a]);  // on the obstacle: minus the force on the body
+  return row;
+}
+
 namespace {
 // Set by SIGINT/SIGTERM; the run loop checks it after every step.
 volatile std::sig_atomic_t pending_signal = 0;
@@ -251,15 +280,40 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
   StepController control(tc.step);
   std::unique_ptr<VtkSeries<dim>> vtk;
   if (config_.output.enabled) vtk = std::make_unique<VtkSeries<dim>>(comm_, config_.output.directory);
+  // With obstacles: their geometry and the contact points at every output
+  // (file numbers those of the particle output), the force on each at every step.
+  std::unique_ptr<ObstacleSeries<dim>> obstacle_vtk;
+  std::unique_ptr<ContactSeries<dim>> contact_vtk;
+  std::unique_ptr<ObstacleForceTable> forces;
+  const bool obstacle_output = vtk && !obstacles_.empty();
+  if (obstacle_output) {
+    obstacle_vtk =
+        std::make_unique<ObstacleSeries<dim>>(comm_, config_.output.directory, grid_->lower(), grid_->upper());
+    contact_vtk = std::make_unique<ContactSeries<dim>>(comm_, config_.output.directory);
+  }
+  const auto write_output = [&] {
+    const std::size_t index = vtk->entries().size();
+    vtk->write(*particles_, time_);
+    if (obstacle_vtk) obstacle_vtk->write(obstacles_, time_, index);
+    if (contact_vtk) contact_vtk->write(contact_samples(), time_, index);
+    ++summary.outputs;
+  };
+  const std::string forces_path = config_.output.directory + "/obstacle_forces.csv";
   if (resume_) {
     summary.steps = resume_->steps;
     summary.cutbacks = resume_->cutbacks;
     control.restore({resume_->step_size, resume_->patience, resume_->calm, resume_->since_growth});
     next_output = resume_->next_output;
     if (vtk) vtk->resume(resume_->outputs);
-  } else if (vtk) {
-    vtk->write(*particles_, time_);
-    ++summary.outputs;
+    if (obstacle_vtk) obstacle_vtk->resume(resume_->outputs);
+    if (contact_vtk) contact_vtk->resume(resume_->outputs);
+    // The table keeps its rows up to the checkpoint's time and continues.
+    std::string note;
+    if (obstacle_output) forces = std::make_unique<ObstacleForceTable>(comm_, forces_path, force_columns(), time_, &note);
+    if (progress && rank == 0 && !note.empty()) *progress << "  " << note << "\n";
+  } else {
+    if (obstacle_output) forces = std::make_unique<ObstacleForceTable>(comm_, forces_path, force_columns());
+    if (vtk) write_output();
   }
   const auto checkpoint = [&] {
     const StepController::State s = control.state();
@@ -303,10 +357,10 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
     ++summary.steps;
     summary.max_step_newton_iterations = std::max<long>(summary.max_step_newton_iterations, r.newton.iterations);
     control.succeeded();
+    if (forces) forces->append(time_, force_row());
     const bool due = time_ >= next_output - eps || time_ >= tc.end - eps;
     if (vtk && due) {
-      vtk->write(*particles_, time_);
-      ++summary.outputs;
+      write_output();
       while (next_output <= time_ + eps) next_output += config_.output.interval > 0 ? config_.output.interval : tc.end;
     }
     if (progress && rank == 0) {

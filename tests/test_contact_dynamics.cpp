@@ -150,3 +150,130 @@ TEST_CASE("Block on an incline with tan(theta) < mu sticks", "[contact]") {
   CHECK(std::abs(aligned) < 1e-4);
   CHECK(std::abs(rotated) < 1e-4);
 }
+
+TEST_CASE("A block dropped on a floor with e = 0 lands without bouncing and comes to rest", "[contact][mpi]") {
+  // Floor: a half-plane at y = 0.13, between grid lines (cell 0.05), so the
+  // contact points are grid points inside the floor and just above it.
+  const double floor = 0.13, drop = 0.2, cell = 0.05;
+  CaseConfig c = testing::case_from_yaml(
+      "grid: {lower: [0, 0], upper: [1.0, 0.8], cell_size: 0.05}\n"
+      "time: {end: 1, step: 0.005}\n"
+      "output: {enabled: false}\n"
+      "gravity: [0, -9.81]\n"
+      "materials: [{name: rock, model: linear_elastic, density: 2000, youngs_modulus: 5.0e6, poisson_ratio: 0.3}]\n"
+      "bodies: [{name: block, material: rock, box: {lower: [0.35, 0.33], upper: [0.65, 0.53]}}]\n"
+      "boundaries: {x_min: free, x_max: free, y_min: free, y_max: free}\n");
+  ObstacleConfig plane;
+  plane.name = "floor";
+  plane.point = {0.0, floor};
+  plane.normal = {0.0, 1.0};
+  plane.velocity = {0.0, 0.0};
+  plane.friction = 0.3;
+  plane.restitution = 0.0;
+  c.obstacles.push_back(plane);
+  Simulation<2> sim(c, PETSC_COMM_WORLD);
+  const double impact_speed = std::sqrt(2 * g * drop);
+  double lowest = 1e9, max_rebound = 0.0, first_contact = -1.0;
+  long newton = 0, steps = 0;
+  while (sim.time() < 1.0 - 1e-12) {
+    const StepReport r = sim.advance(0.005);
+    REQUIRE(r.converged);
+    newton += r.newton.iterations;
+    ++steps;
+    if (first_contact < 0 && r.contact_points > 0) first_contact = sim.time();
+    const Vector<2> v = mean_field(sim.particles(), field::velocity);
+    if (first_contact > 0) max_rebound = std::max(max_rebound, v[1]);
+    FieldView<PetscReal> x(sim.particles().swarm(), field::position);
+    double local = 1e9;
+    for (PetscInt p = 0; p < sim.particles().local_count(); ++p) local = std::min(local, x[2 * p + 1]);
+    double global;
+    MPI_Allreduce(&local, &global, 1, MPI_DOUBLE, MPI_MIN, PETSC_COMM_WORLD);
+    lowest = std::min(lowest, global);
+  }
+  // The lowest particle centre sits half a particle spacing (cell / 4) above
+  // the floor when the block rests on it.
+  const double penetration = floor + 0.25 * cell - lowest;
+  const double final_speed = max_speed(sim.particles());
+  const double weight = 0.3 * 0.2 * 2000 * g;
+  INFO("first contact at t = " << first_contact << " s (free fall: " << std::sqrt(2 * drop / g) - 0.0
+                               << " s), max rebound velocity " << max_rebound << " m/s (impact " << impact_speed
+                               << "), penetration " << penetration / cell << " cell, final max speed "
+                               << final_speed << " m/s, floor force " << sim.obstacle_forces()[0].transpose()
+                               << " N/m (weight " << weight << "), Newton/step " << double(newton) / steps);
+  CHECK(first_contact > 0.0);
+  // e = 0: the centre of mass never moves up again after the impact (beyond
+  // the block's elastic ringing, bounded by 1 % of the impact speed; 0.19 % measured).
+  CHECK(max_rebound <= 0.01 * impact_speed);
+  CHECK(penetration <= 0.05 * cell);  // 0.003 cell measured: contact closes on the particles' gap
+  // At rest, and carried by the floor: contact force = weight.
+  CHECK(final_speed < 1e-2);
+  CHECK(std::abs(sim.obstacle_forces()[0][1] - weight) <= 1e-3 * weight);
+  CHECK(std::abs(sim.obstacle_forces()[0][0]) <= 1e-6 * weight);
+}
+
+TEST_CASE("Granular column on a frictional floor (mu = 0.4): below the free-fall speed, deposit at rest",
+          "[contact]") {
+  // inputs/column_collapse_frictional_floor.yaml on a coarser time span: a = 2, H0 = 1 m.
+  CaseConfig c = testing::case_from_yaml(
+      "grid: {lower: [0, 0], upper: [3.0, 1.2], cell_size: 0.05}\n"
+      "time: {end: 2.0, step: 0.0025}\n"
+      "output: {enabled: false}\n"
+      "gravity: [0, -9.81]\n"
+      "materials: [{name: sand, model: drucker_prager, density: 2000, youngs_modulus: 1.0e6, poisson_ratio: 0.3,"
+      " friction_angle: 30, dilatancy_angle: 0, cohesion: 0, mohr_coulomb_match: plane_strain}]\n"
+      "bodies: [{name: column, material: sand, box: {lower: [0, 0], upper: [0.5, 1.0]}}]\n"
+      "boundaries: {x_min: slip, x_max: slip, y_min: slip, y_max: slip}\n");
+  c.faces[2] = FaceCondition::frictional;
+  c.face_contact[2].friction = 0.4;
+  Simulation<2> sim(c, PETSC_COMM_WORLD);
+  const double bound = std::sqrt(2 * g * 1.0);
+  double fastest = 0.0;
+  long newton = 0, steps = 0, max_newton = 0;
+  while (sim.time() < 2.0 - 1e-12) {
+    const StepReport r = sim.advance(0.0025);
+    REQUIRE(r.converged);
+    newton += r.newton.iterations;
+    max_newton = std::max<long>(max_newton, r.newton.iterations);
+    ++steps;
+    fastest = std::max(fastest, max_speed(sim.particles()));
+  }
+  const double final_speed = max_speed(sim.particles());
+  FieldView<PetscReal> x(sim.particles().swarm(), field::position);
+  double front = 0.0;
+  for (PetscInt p = 0; p < sim.particles().local_count(); ++p) front = std::max(front, x[2 * p]);
+  INFO("fastest particle " << fastest << " m/s (bound " << bound << "), final max speed " << final_speed
+                           << " m/s, front " << front << " m, Newton/step " << double(newton) / steps << " (max "
+                           << max_newton << ")");
+  CHECK(fastest < bound);
+  CHECK(final_speed < 0.05);
+}
+
+TEST_CASE("Earth pressure on a frictionless wall: K0 rho g H^2 / 2", "[contact][mpi]") {
+  // An elastic soil layer in uniaxial strain between a slip face (x = 0), a
+  // slip floor and a frictionless wall at x = 0.825 (between grid lines),
+  // starting from its geostatic state with k0 = nu / (1 - nu): at rest, the
+  // wall carries K0 rho g H^2 / 2.
+  const double H = 1.0, rho = 2000, nu = 0.3, K0 = nu / (1 - nu);
+  CaseConfig c = testing::case_from_yaml(
+      "grid: {lower: [0, 0], upper: [1.2, 1.2], cell_size: 0.05}\n"
+      "time: {end: 1, step: 0.01}\n"
+      "output: {enabled: false}\n"
+      "gravity: [0, -9.81]\n"
+      "materials: [{name: soil, model: linear_elastic, density: 2000, youngs_modulus: 1.0e7, poisson_ratio: 0.3}]\n"
+      "bodies: [{name: layer, material: soil, box: {lower: [0, 0], upper: [0.825, 1.0]}, initial_stress: geostatic}]\n"
+      "boundaries: {x_min: slip, x_max: free, y_min: slip, y_max: free}\n");
+  ObstacleConfig wall;
+  wall.name = "wall";
+  wall.point = {0.825, 0.0};
+  wall.normal = {-1.0, 0.0};
+  wall.velocity = {0.0, 0.0};
+  wall.friction = 0.0;
+  c.obstacles.push_back(wall);
+  Simulation<2> sim(c, PETSC_COMM_WORLD);
+  for (int k = 0; k < 20; ++k) REQUIRE(sim.advance(0.01).converged);
+  const double expected = K0 * rho * g * H * H / 2;
+  const Vector<2> f = sim.obstacle_forces()[0];
+  INFO("wall force on the soil " << f.transpose() << " N/m, closed form " << -expected);
+  CHECK(std::abs(-f[0] - expected) <= 0.01 * expected);
+  CHECK(std::abs(f[1]) <= 1e-9 * expected);  // frictionless
+}

@@ -187,11 +187,17 @@ void MomentumSystem<dim>::contact_rows(Vec v, Vec F) {
   for (std::size_t c = 0; c < contacts_.size(); ++c) {
     const ContactPoint<dim>& cp = contacts_[c];
     // The impulse the obstacle must supply: the momentum imbalance R_i(v).
-    const Vector<dim> r = Eigen::Map<const Vector<dim>>(f + cp.row);
-    const Vector<dim> u = Eigen::Map<const Vector<dim>>(x + cp.row) - cp.obstacle_velocity;
+    // A slip-face component is held by the face (its row stays m v = 0), so
+    // the obstacle's impulse and the velocity have none there.
+    Vector<dim> r = Eigen::Map<const Vector<dim>>(f + cp.row);
+    Vector<dim> u = Eigen::Map<const Vector<dim>>(x + cp.row);
+    for (int a = 0; a < dim; ++a)
+      if (!cp.free[a]) r[a] = u[a] = 0.0;
+    u -= cp.obstacle_velocity;
     contact_impulse_[c] = r;
     contact_map_[c] = natural_map<dim>(r, u, cp.normal, cp.friction, cp.restitution, cp.start_normal_velocity, cp.rho);
-    Eigen::Map<Vector<dim>>(f + cp.row) = contact_map_[c].value;
+    for (int a = 0; a < dim; ++a)
+      if (cp.free[a]) f[cp.row + a] = contact_map_[c].value[a];
   }
   TALUS_PETSC(VecRestoreArrayRead(v, &x));
   TALUS_PETSC(VecRestoreArray(F, &f));
@@ -244,11 +250,18 @@ void MomentumSystem<dim>::contact_jacobian(Vec v, Mat J) {
         const auto at = std::lower_bound(cols.begin(), cols.end(), col) - cols.begin();
         block(a, at) += value;
       }
-    Eigen::MatrixXd result = contact_map_[c].d_impulse * block;
+    // Constrained components: r_a = 0 and v_a = 0 are constants, so their
+    // columns of dPhi/dr and dPhi/du drop out, and their rows stay m v_a = 0.
+    Matrix<dim> d_impulse = contact_map_[c].d_impulse, d_velocity = contact_map_[c].d_velocity;
+    for (int a = 0; a < dim; ++a)
+      if (!contacts_[c].free[a]) d_impulse.col(a).setZero(), d_velocity.col(a).setZero();
+    Eigen::MatrixXd result = d_impulse * block;
     for (int b = 0; b < dim; ++b) {
       const auto at = std::lower_bound(cols.begin(), cols.end(), r0 + b) - cols.begin();
-      result.col(at) += contact_map_[c].d_velocity.col(b);
+      result.col(at) += d_velocity.col(b);
     }
+    for (int a = 0; a < dim; ++a)
+      if (!contacts_[c].free[a]) result.row(a) = block.row(a);
     // Row-major for MatSetValues.
     values[c].resize(dim * nc);
     for (int a = 0; a < dim; ++a)
