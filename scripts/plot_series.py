@@ -1,6 +1,7 @@
 #!/usr/bin/python3
 """Time series of a talus run: front (run-out), height, kinetic and potential
-energy at every output, as a CSV table and a PNG with three panels.
+energy at every output, and the force on each obstacle, as a CSV table and a
+PNG with three panels (four with obstacles).
 
     /usr/bin/python3 scripts/plot_series.py output/column_collapse_psi0/particles.pvd \
         --out column_series.png --title "column collapse, psi = 0"
@@ -25,9 +26,18 @@ front and height with the edge of the body. The vertical axis is y when every
 z coordinate is 0 (2D output) and z otherwise (3D), unless --vertical-axis
 says otherwise. Gravity is taken to point down that axis.
 
-No wall-force series: the force of the flow on an obstacle needs contact
-with rigid obstacles, which talus does not have yet (issue 4), so this script
-writes none rather than an estimate.
+Wall forces: if the run has obstacles, talus writes obstacle_forces.csv next
+to the .pvd (one row per time step: the force the material exerts on each
+obstacle, N per m of thickness in 2D, N in 3D; docs/output.md). The script
+reads it (--forces) and adds, per obstacle NAME, two columns
+
+  NAME_force               N/m    |F| at the output's time (the step ending then;
+                                  nan at t = 0, before the first step); N in 3D
+  NAME_force_x             N/m    the component of F along --x-axis (the run-out
+                                  axis; the column is named after it: _y, _z)
+
+and a fourth panel with |F| (solid) and that component (dashed) at every
+step. --obstacles limits both to the named obstacles.
 """
 import argparse
 import csv
@@ -75,6 +85,36 @@ def read(path):
     return vtk_to_numpy(grid.GetPoints().GetData()).astype(float), arrays[0], arrays[1]
 
 
+def read_forces(path):
+    """The obstacle force table: times (steps), and per obstacle name its
+    force vectors (steps x dim)."""
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    if not rows or rows[0][0] != "time":
+        sys.exit(f"plot_series: {path} is not an obstacle force table (no 'time' column)")
+    header = rows[0]
+    data = np.array([[float(v) for v in r] for r in rows[1:] if len(r) == len(header)], dtype=float).reshape(-1, len(header))
+    forces = {}
+    for k, column in enumerate(header[1:], start=1):
+        name, _, component = column.rpartition("_f")
+        if not name or component not in ("x", "y", "z"):
+            sys.exit(f"plot_series: {path}: column '{column}' is not NAME_fx, NAME_fy or NAME_fz")
+        forces.setdefault(name, {})["xyz".index(component)] = data[:, k]
+    out = {}
+    for name, comps in forces.items():
+        dim = len(comps)
+        out[name] = np.stack([comps[a] for a in range(dim)], axis=1)
+    return data[:, 0], out
+
+
+def force_at(times, values, t):
+    """The row of the step that ends at time t (None if no step ends there)."""
+    if times.size == 0:
+        return None
+    k = int(np.argmin(np.abs(times - t)))
+    return values[k] if abs(times[k] - t) <= 1e-9 * max(1.0, abs(t)) else None
+
+
 def bulk_front(x, m, fraction):
     """The coordinate x below which `fraction` of the mass m lies (the
     particle at which the cumulative mass, sorted by x, reaches it)."""
@@ -94,6 +134,9 @@ def main():
                    help="direction of height and potential energy (default: y for 2D output, z for 3D)")
     p.add_argument("--gravity", type=float, default=9.81, help="g in m/s^2, pointing down the vertical axis")
     p.add_argument("--mass-fraction", type=float, default=0.99, help="mass fraction of the bulk front (default 0.99)")
+    p.add_argument("--forces", default=None,
+                   help="obstacle force table (default: obstacle_forces.csv next to the .pvd, if there is one)")
+    p.add_argument("--obstacles", nargs="+", default=None, help="the obstacles whose force to plot (default: all)")
     p.add_argument("--title", default=None)
     p.add_argument("--dpi", type=int, default=100)
     a = p.parse_args()
@@ -119,17 +162,38 @@ def main():
                      "height": float(x[:, vertical].max()), "kinetic_energy": 0.5 * float(np.dot(m, speed2)),
                      "potential_energy_change": potential - potential0, "max_speed": float(np.sqrt(speed2.max()))})
 
+    # The force on each obstacle (the table of every step), at the outputs too.
+    forces_path = a.forces or os.path.join(os.path.dirname(a.pvd), "obstacle_forces.csv")
+    force_times, forces = np.zeros(0), {}
+    if a.forces or os.path.exists(forces_path):
+        force_times, forces = read_forces(forces_path)
+        if a.obstacles:
+            unknown = [n for n in a.obstacles if n not in forces]
+            if unknown:
+                sys.exit(f"plot_series: {forces_path} has no obstacle {', '.join(unknown)} (it has {', '.join(forces)})")
+            forces = {n: forces[n] for n in a.obstacles}
+    elif a.obstacles:
+        sys.exit(f"plot_series: --obstacles given but there is no {forces_path}")
+    columns = list(COLUMNS)
+    for name, F in forces.items():
+        columns += [f"{name}_force", f"{name}_force_{'xyz'[along]}"]
+        for r in rows:
+            f = force_at(force_times, F, r["time"])
+            r[f"{name}_force"] = float(np.linalg.norm(f)) if f is not None else float("nan")
+            r[f"{name}_force_{'xyz'[along]}"] = float(f[along]) if f is not None and along < F.shape[1] else float("nan")
+
     csv_path = a.csv or os.path.splitext(a.out)[0] + ".csv"
     with open(csv_path, "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=COLUMNS)
+        w = csv.DictWriter(f, fieldnames=columns)
         w.writeheader()
         for r in rows:
-            w.writerow({k: (repr(r[k]) if isinstance(r[k], float) else r[k]) for k in COLUMNS})
+            w.writerow({k: (repr(r[k]) if isinstance(r[k], float) else r[k]) for k in columns})
 
     per_m = "" if three_d else "/m"
     names = "xyz"
     t = [r["time"] for r in rows]
-    fig, axes = plt.subplots(3, 1, figsize=(7, 8), sharex=True)
+    panels = 4 if forces else 3
+    fig, axes = plt.subplots(panels, 1, figsize=(7, 8 if panels == 3 else 10), sharex=True)
     ax = axes[0]
     ax.plot(t, [r["front"] for r in rows], "o-", markersize=3, label=f"front (max {names[along]})")
     ax.plot(t, [r["front99"] for r in rows], "s--", markersize=3,
@@ -144,8 +208,16 @@ def main():
     ax.plot(t, [-r["potential_energy_change"] for r in rows], "s--", markersize=3, color="C4",
             label="potential energy released (−ΔPE)")
     ax.set_ylabel(f"energy (J{per_m})")
-    ax.set_xlabel("time (s)")
     ax.legend(fontsize=8)
+    if forces:
+        ax = axes[3]
+        for k, (name, F) in enumerate(forces.items()):
+            ax.plot(force_times, np.linalg.norm(F, axis=1), "-", linewidth=1, color=f"C{k}", label=f"{name}: |F|")
+            if along < F.shape[1]:
+                ax.plot(force_times, F[:, along], "--", linewidth=1, color=f"C{k}", label=f"{name}: F{names[along]}")
+        ax.set_ylabel(f"force on obstacle (N{per_m})")
+        ax.legend(fontsize=8)
+    axes[-1].set_xlabel("time (s)")
     for ax in axes:
         ax.grid(alpha=0.3)
         ax.tick_params(labelsize=8)
@@ -154,7 +226,7 @@ def main():
     fig.tight_layout()
     fig.savefig(a.out, dpi=a.dpi)
     print(f"plot_series: wrote {a.out} and {csv_path} ({len(rows)} outputs, {'3D' if three_d else '2D'}, "
-          f"vertical axis {names[vertical]})")
+          f"vertical axis {names[vertical]}" + (f", forces on {', '.join(forces)} from {forces_path}" if forces else "") + ")")
 
 
 if __name__ == "__main__":

@@ -233,7 +233,7 @@ std::vector<ContactSample<dim>> Simulation<dim>::contact_samples() const {
   for (const NodalContact& c : nodal_contacts_) {
     // 0 sticking (inside the cone), 1 separating (polar cone: r = 0), 2 sliding (on its boundary).
     const int state = c.region == ConeRegion::inside ? 0 : c.region == ConeRegion::polar ? 1 : 2;
-    samples.push_back({c.position, Vector<dim>(-c.force), c.obstacle, state});
+    samples.push_back({c.position, Vector<dim>(Vector<dim>::Zero() - c.force), c.obstacle, state});
   }
   return samples;
 }
@@ -251,7 +251,8 @@ template <int dim>
 std::vector<double> Simulation<dim>::force_row() const {
   std::vector<double> row;
   for (const Vector<dim>& f : obstacle_force_)
-    for (int a = 0; a < dim; ++a) row.push_back(-f[a]);  // on the obstacle: minus the force on the body
+    // On the obstacle: minus the force on the body (0.0 - f: +0, not -0, where nothing touches).
+    for (int a = 0; a < dim; ++a) row.push_back(0.0 - f[a]);
   return row;
 }
 
@@ -309,7 +310,8 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
     if (contact_vtk) contact_vtk->resume(resume_->outputs);
     // The table keeps its rows up to the checkpoint's time and continues.
     std::string note;
-    if (obstacle_output) forces = std::make_unique<ObstacleForceTable>(comm_, forces_path, force_columns(), time_, &note);
+    if (obstacle_output)
+      forces = std::make_unique<ObstacleForceTable>(comm_, forces_path, force_columns(), time_, &note);
     if (progress && rank == 0 && !note.empty()) *progress << "  " << note << "\n";
   } else {
     if (obstacle_output) forces = std::make_unique<ObstacleForceTable>(comm_, forces_path, force_columns());
@@ -343,6 +345,7 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
     summary.linear_iterations += r.newton.linear_iterations;
     summary.transfer_seconds += r.transfer_seconds;
     summary.solve_seconds += r.solve_seconds;
+    summary.contact_seconds += r.contact_seconds;
     if (!r.converged) {
       ++summary.cutbacks;
       const double h = control.failed();
@@ -355,6 +358,7 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
       continue;
     }
     ++summary.steps;
+    summary.contact_points += r.contact_points;
     summary.max_step_newton_iterations = std::max<long>(summary.max_step_newton_iterations, r.newton.iterations);
     control.succeeded();
     if (forces) forces->append(time_, force_row());

@@ -154,3 +154,269 @@ assert np.all(a("material_id") == 0) and np.all(a("body_id") == 0)
 assert sorted(a("particle_id").tolist()) == list(range(n))
 print("cli ok: geostatic state read back,", n, "particles, sigma_v at the base", sv.min())
 PY
+
+# A case without obstacles writes none of the obstacle files.
+for f in obstacle_forces.csv obstacles.pvd contacts.pvd; do
+  [ ! -e "$work/out/$f" ] || { echo "FAIL: $f written for a case without obstacles"; exit 1; }
+done
+
+# Obstacles (docs/output.md#obstacles-and-contacts): a 0.4 x 0.2 m elastic
+# block resting on a frictional floor (a half-plane at y = 0.1), a tilted
+# half-plane, a moving box and a frictional face x_min that it never touches.
+# obstacle_forces.csv: one row per step; at the end the floor carries the
+# block's weight m g (m from the particle masses) to 1e-6; the contact points
+# sum to the table's force; the .vtp geometry equals the closed-form clip to
+# the grid box. A restart continues the table and the two series exactly.
+cat > obs.yaml <<EOF
+grid: {lower: [0.0, 0.0], upper: [1.0, 0.6], cell_size: 0.05}
+time: {end: 0.2, step: 0.01}
+output: {directory: $work/obs, interval: 0.05}
+checkpoint: {interval: 7}
+gravity: [0.0, -9.81]
+materials:
+  - {name: rock, model: linear_elastic, density: 2000.0, youngs_modulus: 2.0e7, poisson_ratio: 0.3}
+bodies:
+  - {name: block, material: rock, box: {lower: [0.3, 0.1], upper: [0.7, 0.3]}}
+obstacles:
+  - {name: floor, type: half_plane, point: [0.0, 0.1], normal: [0.0, 1.0], friction: 0.5}
+  - {name: ramp, type: half_plane, point: [1.0, 0.2], normal: [-1.0, 1.0], friction: 0.25}
+  - {name: wall, type: box, lower: [0.8, 0.45], upper: [1.2, 0.55], velocity: [-1.0, 0.0], friction: 0.3}
+boundaries: {x_min: {condition: frictional, friction: 0.4}}
+EOF
+"$talus" run obs.yaml > obs.log 2>&1 || { echo "FAIL: obstacle case"; cat obs.log; exit 1; }
+cp -r obs obs_full
+# Restart from step 7 in the same directory, after a crash that tore the
+# table's last line: rows after t = 0.07 are dropped and written again, the
+# torn line is gone; on the same rank count the run repeats bit for bit.
+printf '0.21,-1569.6,0' >> obs/obstacle_forces.csv
+"$talus" run obs.yaml --restart obs/checkpoint_000007.h5 > obs_restart.log 2>&1 ||
+  { echo "FAIL: obstacle restart"; cat obs_restart.log; exit 1; }
+for f in obstacle_forces.csv obstacles.pvd contacts.pvd particles.pvd; do
+  cmp -s "obs/$f" "obs_full/$f" ||
+    { echo "FAIL: $f after the restart differs from the run straight through"; diff "obs/$f" "obs_full/$f" | head; exit 1; }
+done
+# The same case on two ranks (contact pieces of ranks without contact points
+# are empty but valid), and restarted on two ranks from the serial step 14.
+sed -e "s#directory: $work/obs#directory: $work/obs2#" obs.yaml > obs2.yaml
+mpiexec -n 2 "$talus" run obs2.yaml > obs2.log 2>&1 || { echo "FAIL: obstacle case on 2 ranks"; cat obs2.log; exit 1; }
+mpiexec -n 2 "$talus" run obs.yaml --restart obs/checkpoint_000014.h5 > obs_restart2.log 2>&1 ||
+  { echo "FAIL: obstacle restart on 2 ranks"; cat obs_restart2.log; exit 1; }
+/usr/bin/python3 - "$work" <<'PY'
+import csv, glob, os, sys, xml.etree.ElementTree as ET
+import numpy as np
+import vtk
+from vtk.util.numpy_support import vtk_to_numpy
+work = sys.argv[1]
+
+def table(path):
+    with open(path) as f:
+        rows = list(csv.reader(f))
+    return rows[0], np.array([[float(v) for v in r] for r in rows[1:]])
+
+def series(path):
+    return [(float(d.get("timestep")), d.get("file")) for d in ET.parse(path).getroot().iter("DataSet")]
+
+def read(reader, path):
+    reader.SetFileName(path)
+    reader.Update()
+    return reader.GetOutput()
+
+out = os.path.join(work, "obs_full")
+header, f = table(os.path.join(out, "obstacle_forces.csv"))
+assert header == ["time", "floor_fx", "floor_fy", "ramp_fx", "ramp_fy", "wall_fx", "wall_fy", "x_min_fx", "x_min_fy"], header
+assert f.shape == (20, 9), f.shape                          # one row per step of 0.01 s
+assert np.abs(f[:, 0] - 0.01 * np.arange(1, 21)).max() < 1e-12 and np.all(np.diff(f[:, 0]) > 0), f[:, 0]
+
+# The block's weight, from the particle masses of the last output.
+particles = series(os.path.join(out, "particles.pvd"))
+g = read(vtk.vtkXMLPUnstructuredGridReader(), os.path.join(out, particles[-1][1]))
+m = vtk_to_numpy(g.GetPointData().GetArray("mass")).sum()
+W = m * 9.81
+assert abs(m - 2000.0 * 0.4 * 0.2) < 1e-9 * m, m
+last = f[-1]
+# The force on the floor is the weight, pointing down (the force ON the obstacle).
+assert abs(last[2] + W) <= 1e-6 * W, (last[2], -W)
+assert abs(last[1]) <= 1e-6 * W, last[1]
+assert np.all(f[:, 3:] == 0.0), "force on an obstacle the block never touches"
+assert np.all(f[:, 2] < 0.0)
+
+# Contact points at the last output: they sum to the table's row, and each
+# one's state agrees with its force (mu = 0.5, floor normal +y; the force on
+# the body is r = -contact_force).
+contacts = series(os.path.join(out, "contacts.pvd"))
+assert [t for t, _ in contacts] == [t for t, _ in particles], (contacts, particles)
+c = read(vtk.vtkXMLPUnstructuredGridReader(), os.path.join(out, contacts[-1][1]))
+pd = c.GetPointData()
+F = vtk_to_numpy(pd.GetArray("contact_force"))
+ob = vtk_to_numpy(pd.GetArray("obstacle"))
+state = vtk_to_numpy(pd.GetArray("contact_state"))
+assert F.shape[1] == 3 and np.all(F[:, 2] == 0.0) and np.all(ob == 0) and len(ob) > 0, (F.shape, ob)
+assert np.abs(F[:, :2].sum(axis=0) - last[1:3]).max() <= 1e-9 * W, (F.sum(axis=0), last[1:3])
+rN, rT = -F[:, 1], np.abs(F[:, 0])
+tol = 1e-6 * W
+for s, n_, t_ in zip(state, rN, rT):
+    assert s in (0, 1, 2), s
+    if s == 0: assert t_ <= 0.5 * n_ + tol, (s, n_, t_)              # sticking: inside the cone
+    if s == 1: assert n_ <= tol and t_ <= tol, (s, n_, t_)          # separating: no force
+    if s == 2: assert abs(t_ - 0.5 * n_) <= tol, (s, n_, t_)        # sliding: on the cone
+assert (state == 0).sum() > 0
+first = read(vtk.vtkXMLPUnstructuredGridReader(), os.path.join(out, contacts[0][1]))
+assert contacts[0][0] == 0.0 and first.GetNumberOfPoints() == 0    # no contact before the first step
+assert first.GetPointData().GetArray("contact_state") is not None
+
+# Obstacle geometry: at every output, each obstacle clipped to the grid box
+# [0, 1] x [0, 0.6], the box moved by velocity * t.
+def clip_line(p, n):
+    """End points of the line (x - p) . n = 0 inside the grid box: its crossings of the box edges."""
+    pts = []
+    for axis, value in ((0, 0.0), (0, 1.0), (1, 0.0), (1, 0.6)):
+        other = 1 - axis
+        if n[other] == 0.0:
+            continue
+        x = np.zeros(2)
+        x[axis] = value
+        x[other] = p[other] - (value - p[axis]) * n[axis] / n[other]
+        if -1e-12 <= x[0] <= 1 + 1e-12 and -1e-12 <= x[1] <= 0.6 + 1e-12 and not any(np.allclose(x, q) for q in pts):
+            pts.append(x)
+    return sorted(map(tuple, pts))
+
+obstacles = series(os.path.join(out, "obstacles.pvd"))
+assert [t for t, _ in obstacles] == [t for t, _ in particles] and len(obstacles) == 5, obstacles
+for t, name in obstacles:
+    assert name.endswith(".vtp")
+    o = read(vtk.vtkXMLPolyDataReader(), os.path.join(out, name))
+    P = vtk_to_numpy(o.GetPoints().GetData())
+    assert np.all(P[:, 2] == 0.0)
+    ids = vtk_to_numpy(o.GetCellData().GetArray("obstacle"))
+    mu = vtk_to_numpy(o.GetCellData().GetArray("friction"))
+    names = o.GetFieldData().GetAbstractArray("obstacle_names")
+    assert [names.GetValue(k) for k in range(names.GetNumberOfValues())] == ["floor", "ramp", "wall", "x_min"]
+    assert sorted(ids.tolist()) == [0, 1, 2, 3], ids
+    cells = {}
+    for k in range(o.GetNumberOfCells()):
+        cell = o.GetCell(k)
+        cells[ids[k]] = (o.GetCellType(k), np.array([P[cell.GetPointId(j), :2] for j in range(cell.GetNumberOfPoints())]))
+        assert mu[k] == [0.5, 0.25, 0.3, 0.4][ids[k]], (ids[k], mu[k])
+    for k, (p, n) in {0: ((0.0, 0.1), (0.0, 1.0)), 1: ((1.0, 0.2), (-1.0, 1.0)), 3: ((0.0, 0.0), (1.0, 0.0))}.items():
+        kind, ends = cells[k]
+        want = clip_line(np.array(p), np.array(n) / np.linalg.norm(n))
+        assert kind == vtk.VTK_LINE and len(want) == 2, (k, kind, want)
+        got = sorted(map(tuple, ends))
+        assert np.abs(np.array(got) - np.array(want)).max() < 1e-12, (t, k, got, want)
+    kind, corners = cells[2]
+    lo, hi = np.array([max(0.8 - t, 0.0), 0.45]), np.array([min(1.2 - t, 1.0), 0.55])
+    want = np.array([[lo[0], lo[1]], [hi[0], lo[1]], [hi[0], hi[1]], [lo[0], hi[1]]])
+    assert kind in (vtk.VTK_QUAD, vtk.VTK_POLYGON) and np.abs(corners - want).max() < 1e-12, (t, corners, want)
+print(f"cli ok: obstacles, {len(f)} rows; floor force {-last[2]!r} N/m vs m g = {W!r} "
+      f"(relative {abs(last[2] + W) / W:.1e}); {len(ob)} contact points; ramp end points "
+      f"{clip_line(np.array((1.0, 0.2)), np.array((-1.0, 1.0)) / 2**0.5)}")
+
+# Two ranks: one contact piece per rank, those at t = 0 empty and readable;
+# the table equals the serial one to solver tolerance, also after a restart.
+worst = 0.0
+for run in ("obs2", "obs"):
+    header2, f2 = table(os.path.join(work, run, "obstacle_forces.csv"))
+    assert header2 == header and f2.shape == f.shape and np.all(f2[:, 0] == f[:, 0]), (run, f2.shape)
+    worst = max(worst, np.abs(f2[:, 1:] - f[:, 1:]).max() / W)
+    assert worst <= 1e-9, (run, worst)
+out2 = os.path.join(work, "obs2")
+with open(os.path.join(out2, "contacts_000000.pvtu")) as fh:
+    pieces = [e.get("Source") for e in ET.fromstring(fh.read()).iter("Piece")]
+assert pieces == ["contacts_000000_0.vtu", "contacts_000000_1.vtu"], pieces
+for piece in pieces:
+    g = read(vtk.vtkXMLUnstructuredGridReader(), os.path.join(out2, piece))
+    assert g.GetNumberOfPoints() == 0 and g.GetPointData().GetArray("contact_force") is not None, piece
+c2 = read(vtk.vtkXMLPUnstructuredGridReader(), os.path.join(out2, "contacts_000004.pvtu"))
+F2 = vtk_to_numpy(c2.GetPointData().GetArray("contact_force"))
+assert len(F2) == len(F) and np.abs(F2.sum(axis=0) - F.sum(axis=0)).max() <= 1e-9 * W
+assert not glob.glob(os.path.join(work, "obs*", ".staging*")) and not glob.glob(os.path.join(work, "obs*", "*.tmp"))
+print(f"cli ok: obstacles on 2 ranks and restarted on 2 ranks, tables equal to {worst:.1e} W")
+PY
+
+# 3D obstacle geometry: a horizontal and a tilted half-plane (their sections
+# of the grid box), a box cut by the grid box (6 outward faces) and a height
+# map (2 triangles (00, 10, 11), (00, 11, 01) per cell; those reaching below
+# z = 0 cut by the grid box).
+printf '%s\n' 'ncols 5' 'nrows 3' 'xllcenter 0.0' 'yllcenter 0.0' 'cellsize 0.25' \
+  '0.05 0.06 0.07 0.06 0.05' '0.04 0.05 0.08 0.05 0.04' '-0.05 0.04 0.06 0.03 0.02' > map.asc
+cat > obs3.yaml <<EOF
+grid: {lower: [0.0, 0.0, 0.0], upper: [1.0, 0.5, 0.5], cell_size: 0.1}
+time: {end: 0.01, step: 0.01}
+output: {directory: $work/obs3}
+gravity: [0.0, 0.0, -9.81]
+materials:
+  - {name: rock, model: linear_elastic, density: 2000.0, youngs_modulus: 2.0e7, poisson_ratio: 0.3}
+bodies:
+  - {name: block, material: rock, box: {lower: [0.1, 0.1, 0.15], upper: [0.3, 0.3, 0.3]}, particles_per_cell: 1}
+obstacles:
+  - {name: floor, type: half_plane, point: [0.0, 0.0, 0.1], normal: [0.0, 0.0, 1.0], friction: 0.5}
+  - {name: tilted, type: half_plane, point: [1.0, 0.0, 0.3], normal: [-1.0, 0.0, 1.0], friction: 0.2}
+  - {name: wall, type: box, lower: [0.8, 0.1, -0.2], upper: [1.3, 0.4, 0.2], friction: 0.3}
+  - {name: ground, type: terrain, file: map.asc, friction: 0.6}
+EOF
+"$talus" run obs3.yaml > obs3.log 2>&1 || { echo "FAIL: 3D obstacle case"; cat obs3.log; exit 1; }
+head -1 "$work/obs3/obstacle_forces.csv" | grep -qx \
+  'time,floor_fx,floor_fy,floor_fz,tilted_fx,tilted_fy,tilted_fz,wall_fx,wall_fy,wall_fz,ground_fx,ground_fy,ground_fz' ||
+  { echo "FAIL: 3D obstacle_forces.csv header"; head -1 "$work/obs3/obstacle_forces.csv"; exit 1; }
+/usr/bin/python3 - "$work/obs3" <<'PY'
+import sys
+import numpy as np
+import vtk
+from vtk.util.numpy_support import vtk_to_numpy
+r = vtk.vtkXMLPolyDataReader()
+r.SetFileName(sys.argv[1] + "/obstacles_000000.vtp")
+r.Update()
+o = r.GetOutput()
+P = vtk_to_numpy(o.GetPoints().GetData())
+ids = vtk_to_numpy(o.GetCellData().GetArray("obstacle"))
+cells = []
+for k in range(o.GetNumberOfCells()):
+    cell = o.GetCell(k)
+    cells.append((ids[k], P[[cell.GetPointId(j) for j in range(cell.GetNumberOfPoints())]]))
+lo, hi = np.zeros(3), np.array([1.0, 0.5, 0.5])
+assert np.all(P >= lo) and np.all(P <= hi), "a point outside the grid box"
+
+def normal(x):   # Newell's normal of a planar polygon: its orientation
+    return sum(np.cross(x[i], x[(i + 1) % len(x)]) for i in range(len(x)))
+
+def same_set(a, b):
+    return len(a) == len(b) and all(np.abs(np.array(b) - p).max(axis=1).min() < 1e-12 for p in a)
+
+def of(k):
+    return [x for i, x in cells if i == k]
+
+# Half-planes: the plane's section of the grid box, counter-clockwise about the outward normal.
+for k, p, n, want in ((0, (0, 0, 0.1), (0, 0, 1), [(0, 0, .1), (1, 0, .1), (1, .5, .1), (0, .5, .1)]),
+                      (1, (1, 0, 0.3), (-1, 0, 1), [(.7, 0, 0), (1, 0, .3), (1, .5, .3), (.7, .5, 0)])):
+    (x,) = of(k)
+    n = np.array(n, float) / np.linalg.norm(n)
+    assert same_set(x, want), (k, x)
+    assert np.abs((x - np.array(p)) @ n).max() < 1e-12
+    assert np.allclose(normal(x) / np.linalg.norm(normal(x)), n), (k, normal(x))
+# The box [0.8, 1.3] x [0.1, 0.4] x [-0.2, 0.2] cut to [0.8, 1] x [0.1, 0.4] x [0, 0.2]: 6 outward faces.
+faces = of(2)
+centre = np.array([0.9, 0.25, 0.1])
+assert len(faces) == 6
+for x in faces:
+    assert len(x) == 4 and np.dot(normal(x), x.mean(axis=0) - centre) > 0
+    assert np.all(np.isin(x[:, 0], [0.8, 1.0]) & np.isin(x[:, 1], [0.1, 0.4]) & np.isin(x[:, 2], [0.0, 0.2])), x
+# The height map: 4 x 2 cells, x fastest, 2 triangles each; node (0, 0) (the
+# file's last row, first column) lies below z = 0.
+z = np.array([[-0.05, 0.04, 0.06, 0.03, 0.02], [0.04, 0.05, 0.08, 0.05, 0.04], [0.05, 0.06, 0.07, 0.06, 0.05]])
+tri = of(3)
+assert len(tri) == 16, len(tri)
+k = 0
+for j in range(2):
+    for i in range(4):
+        for t in (((0, 0), (1, 0), (1, 1)), ((0, 0), (1, 1), (0, 1))):
+            want = np.array([[0.25 * (i + a), 0.25 * (j + b), z[j + b, i + a]] for a, b in t])
+            x = tri[k]
+            k += 1
+            if np.all(want[:, 2] >= 0):
+                assert x.shape == (3, 3) and np.abs(x - want).max() < 1e-12, (i, j, x, want)   # the triangle itself
+            else:                                                          # cut at z = 0, in its plane
+                n = np.cross(want[1] - want[0], want[2] - want[0])
+                assert len(x) >= 3 and np.abs((x - want[0]) @ n).max() < 1e-12 and np.any(x[:, 2] == 0.0), x
+            assert normal(x)[2] > 0                                        # facing up, out of the ground
+print("cli ok: 3D obstacle geometry,", len(cells), "cells")
+PY

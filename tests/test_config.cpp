@@ -2,6 +2,10 @@
 // message names the file line, the key path and (where there is one) the value.
 #include <catch2/catch.hpp>
 
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+
 #include "talus/io/config.hpp"
 #include "talus/simulation.hpp"
 #include "test_support.hpp"
@@ -81,7 +85,7 @@ TEST_CASE("malformed cases name the key, the value and the line", "[config]") {
       {replace(valid, "cell_size: 0.1", "cel_size: 0.1"), "case.yaml:4: grid.cel_size: unknown key (did you mean 'cell_size'?)"},
       {replace(valid, "    model: linear_elastic\n", ""), "materials[0].model: is required"},
       {replace(valid, "model: linear_elastic", "model: elastoplastic"), "materials[0].model = elastoplastic"},
-      {replace(valid, "y_min: fixed", "y_min: glued"), "boundaries.y_min = glued: must be one of: free, slip, fixed"},
+      {replace(valid, "y_min: fixed", "y_min: glued"), "boundaries.y_min = glued: must be one of: free, slip, fixed, frictional"},
       {replace(valid, "upper: [2, 1]", "upper: [2, 1, 1]"), "grid.upper"},
       {replace(valid, "time: {end: 1.0, step: 0.01}", "time: {end: 1.0, step: 0.01, theta: 0.3}"), "time.theta = 0.3"},
       {replace(valid, "model: linear_elastic", "model: drucker_prager\n    friction_angle: 30\n    dilatancy_angle: 40"),
@@ -170,4 +174,239 @@ TEST_CASE("a polygon body is filled with exactly the lattice points inside it", 
   // lattice resolution along the inclined edge (1 m long, spacing 0.05).
   const double area = 0.5 * (1.7 + 0.9) * 0.6;
   CHECK(std::abs(mass.size() * 0.05 * 0.05 - area) <= 0.5 * 1.0 * 0.05);
+}
+
+// ------------------------------------------------------------ contact keys
+
+namespace {
+
+// A fresh directory under the system's temporary directory (tests may run in parallel).
+std::filesystem::path temp_dir() {
+  std::string pattern = (std::filesystem::temp_directory_path() / "talus_config_XXXXXX").string();
+  REQUIRE(mkdtemp(pattern.data()) != nullptr);
+  return pattern;
+}
+
+void write_file(const std::filesystem::path& path, const std::string& text) {
+  std::ofstream out(path);
+  out << text;
+}
+
+const std::string valid_3d =
+    "grid: {lower: [0, 0, 0], upper: [2, 1, 1], cell_size: 0.25}\n"                                        // 1
+    "time: {end: 1, step: 0.1}\n"                                                                           // 2
+    "materials: [{name: m, model: linear_elastic, density: 1000, youngs_modulus: 1e6, poisson_ratio: 0.2}]\n"  // 3
+    "bodies: [{name: b, material: m, box: {lower: [0.5, 0.25, 0.5], upper: [1, 0.75, 1]}}]\n"             // 4
+    "obstacles:\n"                                                                                          // 5
+    "  - name: ground\n"                                                                                    // 6
+    "    type: terrain\n"                                                                                   // 7
+    "    file: ground.asc\n"                                                                                // 8
+    "    friction: 0.6\n";                                                                                  // 9
+
+}  // namespace
+
+TEST_CASE("obstacles, frictional faces and contact options parse into the expected values", "[config][obstacle]") {
+  const std::filesystem::path dir = temp_dir();
+  // Comments, blank lines, commas, Windows line ends and a '+' sign are all fine.
+  write_file(dir / "profile.txt", "# x  height\n\n0.0 0.4   # left\n1.0, 0.2\r\n  2.0\t+0.125\n");
+  const std::string yaml = replace(valid, "boundaries: {y_min: fixed}\n",
+                                   "boundaries:\n"
+                                   "  x_min: free\n"
+                                   "  x_max: {condition: fixed}\n"
+                                   "  y_min: {condition: frictional, friction: 0.4, restitution: 0.1}\n"
+                                   "  y_max: {condition: frictional, friction: 0}\n"
+                                   "obstacles:\n"
+                                   "  - name: floor\n"
+                                   "    type: half_plane\n"
+                                   "    point: [0, 0.1]\n"
+                                   "    normal: [3, 4]\n"
+                                   "    friction: 0.3\n"
+                                   "  - name: wall\n"
+                                   "    type: box\n"
+                                   "    lower: [1.75, 0]\n"
+                                   "    upper: [1.9, 0.8]\n"
+                                   "    friction: 0.5\n"
+                                   "    restitution: 0.2\n"
+                                   "    velocity: [-0.1, 0]\n"
+                                   "  - {name: slope, type: terrain, file: profile.txt, friction: 0.7}\n"
+                                   "contact: {gap_prediction: 0.25}\n");
+  const CaseConfig c = parse_case(yaml, (dir / "case.yaml").string());
+  CHECK(c.faces[0] == FaceCondition::free);
+  CHECK(c.faces[1] == FaceCondition::fixed);
+  CHECK(c.faces[2] == FaceCondition::frictional);
+  CHECK(c.face_contact[2].friction == 0.4);
+  CHECK(c.face_contact[2].restitution == 0.1);
+  CHECK(c.faces[3] == FaceCondition::frictional);
+  CHECK(c.face_contact[3].friction == 0.0);
+  CHECK(c.face_contact[3].restitution == 0.0);
+  CHECK(c.contact.gap_prediction == 0.25);
+  REQUIRE(c.obstacles.size() == 3);
+
+  const ObstacleConfig& floor = c.obstacles[0];
+  CHECK(floor.name == "floor");
+  CHECK(floor.shape == ObstacleShape::half_plane);
+  CHECK(floor.point == std::vector<double>{0.0, 0.1});
+  CHECK(floor.normal[0] == Approx(0.6).epsilon(1e-15));  // normalised on load
+  CHECK(floor.normal[1] == Approx(0.8).epsilon(1e-15));
+  CHECK(floor.friction == 0.3);
+  CHECK(floor.restitution == 0.0);                         // default
+  CHECK(floor.velocity == std::vector<double>{0.0, 0.0});  // default
+
+  const ObstacleConfig& wall = c.obstacles[1];
+  CHECK(wall.shape == ObstacleShape::box);
+  CHECK(wall.lower == std::vector<double>{1.75, 0.0});
+  CHECK(wall.upper == std::vector<double>{1.9, 0.8});
+  CHECK(wall.friction == 0.5);
+  CHECK(wall.restitution == 0.2);
+  CHECK(wall.velocity == std::vector<double>{-0.1, 0.0});
+
+  const ObstacleConfig& slope = c.obstacles[2];
+  CHECK(slope.shape == ObstacleShape::terrain);
+  CHECK(slope.file == "profile.txt");
+  CHECK(slope.friction == 0.7);
+  REQUIRE(slope.polyline.size() == 3);
+  CHECK(slope.polyline[0] == std::array<double, 2>{0.0, 0.4});
+  CHECK(slope.polyline[1] == std::array<double, 2>{1.0, 0.2});
+  CHECK(slope.polyline[2] == std::array<double, 2>{2.0, 0.125});
+
+  // A body partly inside an obstacle is fine (seeding leaves those points out).
+  CHECK_NOTHROW(parse_case(valid + "obstacles: [{name: f, type: half_plane, point: [0, 0.25], normal: [0, 1], "
+                                   "friction: 0.5}]\n",
+                           "case.yaml"));
+  // Without a contact section: the default gap prediction, no obstacles.
+  const CaseConfig plain = parse_case(valid, "case.yaml");
+  CHECK(plain.contact.gap_prediction == 0.5);
+  CHECK(plain.obstacles.empty());
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("the ESRI ASCII grid reader: corner and centre headers, the north row first", "[config][obstacle]") {
+  const std::filesystem::path dir = temp_dir();
+  const std::string heights = "0.9 0.8 0.7\n"   // north row: j = 1
+                              "0.3 0.2 0.1\n";  // south row: j = 0
+  SECTION("corner header: samples at corner + cellsize / 2") {
+    write_file(dir / "ground.asc", "ncols 3\nnrows 2\nxllcorner 0.5\nyllcorner 0.25\ncellsize 0.5\nNODATA_value -9999\n" +
+                                       heights);
+    const ObstacleConfig o = parse_case(valid_3d, (dir / "case.yaml").string()).obstacles.at(0);
+    CHECK(o.map_origin == std::array<double, 2>{0.75, 0.5});
+    CHECK(o.map_spacing == 0.5);
+    CHECK(o.map_nx == 3);
+    CHECK(o.map_ny == 2);
+    CHECK(o.heights == std::vector<double>{0.3, 0.2, 0.1, 0.9, 0.8, 0.7});
+  }
+  SECTION("centre header in capitals, no NODATA_value, blank lines") {
+    write_file(dir / "ground.asc", "NCOLS 3\nNROWS 2\nXLLCENTER 0.5\nYLLCENTER 0.25\nCELLSIZE 0.5\n\n" + heights + "\n");
+    const ObstacleConfig o = parse_case(valid_3d, (dir / "case.yaml").string()).obstacles.at(0);
+    CHECK(o.map_origin == std::array<double, 2>{0.5, 0.25});
+    CHECK(o.heights == std::vector<double>{0.3, 0.2, 0.1, 0.9, 0.8, 0.7});
+  }
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("contact keys: malformed values and terrain files name the case line and the file line", "[config][obstacle]") {
+  const std::filesystem::path dir = temp_dir();
+  const std::string name = (dir / "case.yaml").string();
+  const auto error_in = [&](const std::string& yaml) -> std::string {
+    try {
+      parse_case(yaml, name);
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    FAIL("no InputError for:\n" << yaml);
+    return "";
+  };
+  // 2D: the valid case plus one obstacle on line 18.
+  const auto with_obstacle = [&](const std::string& obstacle) { return valid + "obstacles:\n  - " + obstacle + "\n"; };
+  const std::string terrain_2d = "{name: t, type: terrain, file: t.txt, friction: 0.5}";
+  struct Case {
+    std::string file_text, yaml, expected;
+  };
+  const std::vector<Case> cases = {
+      {"0 0.5\n1 0.4 0.3\n", with_obstacle(terrain_2d),
+       "case.yaml:19: obstacles[0].file = t.txt: t.txt:2: expected one vertex 'x height' (2 numbers), found 3 fields"},
+      {"# one vertex\n0 0.5\n", with_obstacle(terrain_2d), "obstacles[0].file = t.txt: t.txt: needs at least 2 vertices"},
+      {"0 0.5\n1 nan\n", with_obstacle(terrain_2d), "t.txt:2: height 'nan' is not a finite number"},
+      {"0 0.5\n1 1e999\n", with_obstacle(terrain_2d), "t.txt:2: height '1e999' is not a finite number"},
+      {"0 0.5\n1 0.4\n1 0.3\n", with_obstacle(terrain_2d), "t.txt:3: x must increase (1 after 1)"},
+      {"0 5\n2 6\n", with_obstacle(terrain_2d),
+       "obstacles[0].file = t.txt: the terrain lies outside the grid box (above grid.upper on the y axis)"},
+      {"5 0.5\n6 0.5\n", with_obstacle(terrain_2d), "the terrain lies outside the grid box (above grid.upper on the x axis)"},
+      {"", with_obstacle("{name: w, type: box, lower: [2.5, 0], upper: [3, 1], friction: 0.5}"),
+       "obstacles[0].lower: the box lies outside the grid box (above grid.upper on the x axis)"},
+      {"", with_obstacle("{name: w, type: box, lower: [2.5, 0], upper: [3, 1], friction: 0.5, velocity: [-0.1, 0]}"),
+       "the box lies outside the grid box (above grid.upper on the x axis, for the whole run)"},
+      {"", with_obstacle("{name: w, type: box, lower: [-1, -1], upper: [3, 2], friction: 0.5}"),
+       "obstacles[0].lower: the whole grid box lies inside the obstacle"},
+      {"", with_obstacle("{name: f, type: half_plane, point: [0, -0.5], normal: [0, 1], friction: 0.5}"),
+       "obstacles[0].point: the half-plane lies outside the grid box (every grid corner is on its free side)"},
+      {"", with_obstacle("{name: 'a wall', type: box, lower: [1.5, 0], upper: [2, 1], friction: 0.5}"),
+       "obstacles[0].name = a wall: must be a non-empty name of letters"},
+      {"", with_obstacle("{name: w, type: box, lower: [1.5, 0], upper: [2, 1], friction: 0.5, velocity: [1]}"),
+       "obstacles[0].velocity"},
+      {"", with_obstacle("{name: w, type: box, lower: [1.5, 0], upper: [2, 1], friction: inf}"),
+       "obstacles[0].friction = inf: must be a finite number"},
+      {"", with_obstacle("{name: w, type: box, file: x.txt, lower: [1.5, 0], upper: [2, 1], friction: 0.5}"),
+       "obstacles[0].file: is a key of terrain obstacles, not of box ones"},
+      {"", with_obstacle("{name: w, type: box, lower: [0.4, 0], upper: [1.1, 0.6], friction: 0.5}"),
+       "case.yaml:16: bodies[0].box: holds no particle outside the obstacles (its particles would all lie inside "
+       "obstacle 'w')"},
+      {"", with_obstacle("{name: w, type: box, lower: [0.4, 0], upper: [0.76, 0.6], friction: 0.5}\n"
+                         "  - {name: f, type: half_plane, point: [0.75, 0], normal: [-1, 0], friction: 0.5}"),
+       "bodies[0].box: holds no particle outside the obstacles (its particles would all lie inside obstacle 'w', 'f')"},
+      {"", valid + "obstacles: []\n", "case.yaml:18: obstacles = []: must be a non-empty list"},
+      {"", valid + "contact: {gap_predicton: 0.5}\n", "contact.gap_predicton: unknown key (did you mean 'gap_prediction'?)"},
+      {"", valid + "contact: {gap_prediction: -0.1}\n", "case.yaml:18: contact.gap_prediction = -0.1: must be in [0, 1]"},
+      {"", replace(valid, "y_min: fixed", "y_min: {condition: slip, friction: 0.3}"),
+       "case.yaml:17: boundaries.y_min.friction: is only used with condition: frictional"},
+      {"", replace(valid, "y_min: fixed", "y_min: {condition: rough, friction: 0.3}"),
+       "boundaries.y_min.condition = rough: must be one of: free, slip, fixed, frictional"},
+      {"", replace(valid, "y_min: fixed", "y_min: {condition: frictional, friction: 0.3, restitution: -1}"),
+       "boundaries.y_min.restitution = -1: must be in [0, 1]"},
+  };
+  for (const Case& c : cases) {
+    write_file(dir / "t.txt", c.file_text);
+    const std::string message = error_in(c.yaml);
+    INFO("message: " << message);
+    CHECK(message.find(c.expected) != std::string::npos);
+  }
+
+  // 3D height maps (valid_3d: the file key on line 8).
+  const std::vector<std::pair<std::string, std::string>> maps = {
+      {"ncols 1\nnrows 2\nxllcorner 0\nyllcorner 0\ncellsize 1\n0\n0\n", "ground.asc: ncols = 1 must be a whole number from 2 to 1e8"},
+      {"ncols 2.5\nnrows 2\nxllcorner 0\nyllcorner 0\ncellsize 1\n", "ncols = 2.5 must be a whole number from 2 to 1e8"},
+      {"ncols 2\nnrows 2\nxllcorner 0\nyllcorner 0\ncellsize 0\n0 0\n0 0\n", "cellsize = 0 must be > 0"},
+      {"ncols 2\nnrows 2\nxllcorner 0\nyllcorner 0\n0 0\n0 0\n", "the header has no cellsize"},
+      {"ncols 2\nnrows 2\nxllcorner 0\nxllcenter 0\nyllcorner 0\ncellsize 1\n0 0\n0 0\n",
+       "the header gives both xllcorner and xllcenter"},
+      {"ncols 2\nnrows 2\nxllcorner 0\nyllcorner 0\ncellsize 1\ncellsize 1\n0 0\n0 0\n",
+       "ground.asc:6: header key 'cellsize' is given twice"},
+      {"ncols 2\nnrows 2\nxllcorner 0\nyllcorner 0\ncelsize 1\n0 0\n0 0\n",
+       "ground.asc:5: unknown ESRI ASCII grid header key 'celsize'"},
+      {"ncols 3\nnrows 2\nxllcorner 0\nyllcorner 0\ncellsize 0.5\n0.5 0.5 0.5\n0.5 0.5\n",
+       "case.yaml:8: obstacles[0].file = ground.asc: ground.asc:7: row 2 has 2 heights, ncols = 3"},
+      {"ncols 2\nnrows 3\nxllcorner 0\nyllcorner 0\ncellsize 0.5\n0.5 0.5\n0.5 0.5\n", "ground.asc: 2 rows of heights, but nrows = 3"},
+      {"ncols 2\nnrows 2\nxllcorner 0\nyllcorner 0\ncellsize 0.5\n0.5 0.5\n0.5 0.5\n0.5 0.5\n",
+       "ground.asc:8: more than nrows = 2 rows of heights"},
+      {"ncols 2\nnrows 2\nxllcorner 0\nyllcorner 0\ncellsize 0.5\nNODATA_value -1\n0.5 0.5\n-1 0.5\n",
+       "ground.asc:8: the height in row 2, column 1 is the NODATA_value -1"},
+      {"ncols 2\nnrows 2\nxllcorner 0\nyllcorner 0\ncellsize 0.5\n0.5 inf\n0.5 0.5\n",
+       "ground.asc:6: height in row 1, column 2 'inf' is not a finite number"},
+      {"0 0.5\n1 0.5\n", "ground.asc: the header has no xllcorner (or xllcenter)"},
+      {"ncols 2\nnrows 2\nxllcorner 0\nyllcorner 0\ncellsize 0.5\n-2 -2\n-2 -3\n",
+       "the terrain lies outside the grid box (below grid.lower on the z axis)"},
+  };
+  for (const auto& [text, expected] : maps) {
+    write_file(dir / "ground.asc", text);
+    const std::string message = error_in(valid_3d);
+    INFO("file:\n" << text << "message: " << message);
+    CHECK(message.find(expected) != std::string::npos);
+  }
+
+  // A missing file and a directory name the path looked for (relative to the case file).
+  std::filesystem::remove(dir / "ground.asc");
+  CHECK_THAT(error_in(valid_3d), Catch::Contains("case.yaml:8: obstacles[0].file = ground.asc: cannot open the terrain file " +
+                                                 (dir / "ground.asc").string()));
+  std::filesystem::create_directory(dir / "ground.asc");
+  CHECK_THAT(error_in(valid_3d), Catch::Contains("obstacles[0].file = ground.asc: is a directory, not a terrain file"));
+  std::filesystem::remove_all(dir);
 }

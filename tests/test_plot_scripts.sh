@@ -5,6 +5,8 @@
 # valid PNGs of a plausible size; the series CSV has one row per output whose
 # numbers are checked against the case (mass, initial height) and against
 # physics (no kinetic energy at rest, energy gained <= energy released).
+# Then the same column on a frictional floor with a wall in its way: the
+# force columns of plot_series.py equal those of obstacle_forces.csv.
 set -euo pipefail
 talus=$1
 repo=$2
@@ -104,4 +106,66 @@ print("plot_scripts ok:", len(rows), "outputs; height",
       " ".join(f"{r['height']:.4f}" for r in rows), "m; KE",
       " ".join(f"{r['kinetic_energy']:.1f}" for r in rows), "J/m; -dPE",
       " ".join(f"{0.0 - r['potential_energy_change']:.1f}" for r in rows), "J/m")
+PY
+
+# Wall force: the same column on a frictional floor (mu = 0.4, y_min) with a
+# wall box in its way, for 0.3 s. plot_series.py reads obstacle_forces.csv
+# (one row per step) and writes, per obstacle, |F| and F_x at each output: they
+# must equal the table's row of the step ending at that output (nan at t = 0),
+# and the fourth panel makes the PNG taller.
+sed -e "s#directory: .*#directory: $work/wall#" -e 's/end: .*/end: 0.3/' -e 's/interval: .*/interval: 0.1/' \
+  "$repo/inputs/column_collapse_frictional_floor.yaml" > wall.yaml
+printf '%s\n' 'obstacles:' '  - {name: wall, type: box, lower: [0.7, 0.0], upper: [0.8, 0.3], friction: 0.3}' >> wall.yaml
+"$talus" run wall.yaml > wall.log 2>&1 || { echo "FAIL: talus run (wall)"; cat wall.log; exit 1; }
+/usr/bin/python3 "$repo/scripts/plot_series.py" wall/particles.pvd --out wall_series.png \
+  > wall_series.log 2>&1 || { echo "FAIL: plot_series.py (wall)"; cat wall_series.log; exit 1; }
+/usr/bin/python3 "$repo/scripts/plot_series.py" wall/particles.pvd --out wall_only.png --obstacles wall \
+  > wall_only.log 2>&1 || { echo "FAIL: plot_series.py --obstacles wall"; cat wall_only.log; exit 1; }
+
+/usr/bin/python3 - "$work" <<'PY'
+import csv, math, os, struct, sys
+import numpy as np
+work = sys.argv[1]
+with open(os.path.join(work, "wall/obstacle_forces.csv")) as f:
+    table = list(csv.reader(f))
+assert table[0] == ["time", "wall_fx", "wall_fy", "y_min_fx", "y_min_fy"], table[0]
+F = np.array(table[1:], dtype=float)
+assert F.shape == (120, 5) and np.all(np.diff(F[:, 0]) > 0), F.shape       # 0.3 s in steps of 0.0025 s
+with open(os.path.join(work, "wall_series.csv")) as f:
+    rows = list(csv.DictReader(f))
+with open(os.path.join(work, "series.csv")) as f:
+    assert not any("force" in k for k in next(csv.DictReader(f))), "force columns without obstacles"
+assert len(rows) == 4
+checked = 0
+for r in rows:
+    t = float(r["time"])
+    for name, k in (("wall", 1), ("y_min", 3)):
+        force, fx = float(r[f"{name}_force"]), float(r[f"{name}_force_x"])
+        if t == 0.0:
+            assert math.isnan(force) and math.isnan(fx), r                   # no step before t = 0
+            continue
+        row = F[np.argmin(np.abs(F[:, 0] - t))]
+        assert abs(row[0] - t) < 1e-9, (row[0], t)
+        want = math.hypot(row[k], row[k + 1])
+        assert abs(force - want) <= 1e-12 * max(want, 1.0) and fx == row[k], (name, t, force, want, fx, row)
+        checked += 1
+assert checked == 6
+# The floor carries the column: at t = 0.1 its vertical load is within 50 % of
+# the weight m g = 1000 kg/m x 9.81 (the column is accelerating, so not equal).
+mg = 1000.0 * 9.81
+assert 0.5 * mg < -F[np.argmin(np.abs(F[:, 0] - 0.1)), 4] < 1.5 * mg
+with open(os.path.join(work, "wall_only.csv")) as f:
+    header = next(csv.reader(f))
+assert [h for h in header if "force" in h] == ["wall_force", "wall_force_x"], header
+
+# The PNG with the fourth panel: taller than the three-panel one (same dpi).
+def size(name):
+    with open(os.path.join(work, name), "rb") as f:
+        head = f.read(24)
+    assert head[:8] == b"\x89PNG\r\n\x1a\n"
+    return struct.unpack(">II", head[16:24])
+(w3, h3), (w4, h4) = size("series.png"), size("wall_series.png")
+assert w4 == w3 and h4 > h3, (w3, h3, w4, h4)
+print("plot_scripts ok: wall force;", "wall |F| at the outputs",
+      " ".join(r["wall_force"] for r in rows), "N/m; floor |F|", " ".join(f"{float(r['y_min_force']):.1f}" for r in rows))
 PY

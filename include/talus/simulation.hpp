@@ -29,6 +29,8 @@ struct RunSummary {
   std::string last_checkpoint;   // empty if none was written
   long max_step_newton_iterations = 0;  // over the accepted steps (totals include failed attempts)
   double wall_seconds = 0, transfer_seconds = 0, solve_seconds = 0;
+  double contact_seconds = 0;     // part of solve_seconds: candidates + contact rows
+  long contact_points = 0;        // summed over the accepted steps
 };
 
 template <int dim>
@@ -75,6 +77,12 @@ class Simulation {
   void check_finite() const;
   void record_contact_forces(const MomentumSystem<dim>& system, double h);
   void keep_particles_inside();
+  // Output of the obstacles (docs/output.md#obstacles-and-contacts): the
+  // contact points of the last step as written, the columns of
+  // obstacle_forces.csv and its row (the force on each obstacle, -obstacle_forces()).
+  std::vector<ContactSample<dim>> contact_samples() const;
+  std::vector<std::string> force_columns() const;
+  std::vector<double> force_row() const;
 
   CaseConfig config_;
   MPI_Comm comm_;

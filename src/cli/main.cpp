@@ -64,6 +64,7 @@ int run_case(const talus::CaseConfig& config, const std::string& restart, int ra
               << ", \"max_step_newton_iterations\": " << s.max_step_newton_iterations
               << ", \"linear_iterations\": " << s.linear_iterations << ", \"wall_seconds\": " << s.wall_seconds
               << ", \"transfer_seconds\": " << s.transfer_seconds << ", \"solve_seconds\": " << s.solve_seconds
+              << ", \"contact_seconds\": " << s.contact_seconds << ", \"contact_points\": " << s.contact_points
               << ", \"peak_rss_mb\": " << max_rss_mb << "}\n";
   return s.interrupted_by ? 128 + s.interrupted_by : 0;
 }

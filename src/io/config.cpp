@@ -1,11 +1,15 @@
 #include "talus/io/config.hpp"
 
 #include <algorithm>
+#include <cctype>
+#include <charconv>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <sstream>
+#include <system_error>
 
 #include "talus/io/yaml_section.hpp"
 
@@ -250,9 +254,347 @@ void YamlSection::finish() const {
 
 namespace {
 
-FaceCondition parse_face(YamlSection& s, const std::string& key) {
-  const std::string v = s.choice(key, {"free", "slip", "fixed"}, "slip");
-  return v == "free" ? FaceCondition::free : v == "slip" ? FaceCondition::slip : FaceCondition::fixed;
+const std::vector<std::string> face_conditions = {"free", "slip", "fixed", "frictional"};
+const char* const face_names[6] = {"x_min", "x_max", "y_min", "y_max", "z_min", "z_max"};
+const char* const axis_names[3] = {"x", "y", "z"};
+
+// A number as a message prints it (shortest form, not std::to_string's six decimals).
+std::string number_text(double v) {
+  std::ostringstream os;
+  os << v;
+  return os.str();
+}
+
+std::string list_text(const std::vector<double>& v) {
+  std::string s = "[";
+  for (std::size_t i = 0; i < v.size(); ++i) s += (i ? ", " : "") + number_text(v[i]);
+  return s + "]";
+}
+
+// A required text that must be one of `choices`.
+std::string required_choice(YamlSection& s, const std::string& key, const std::vector<std::string>& choices) {
+  const std::string v = s.text(key);
+  if (std::find(choices.begin(), choices.end(), v) == choices.end()) {
+    std::string list;
+    for (const auto& c : choices) list += (list.empty() ? "" : ", ") + c;
+    s.fail_value(key, v, "must be one of: " + list);
+  }
+  return v;
+}
+
+// Coulomb's mu (required, >= 0) and Newton's restitution e (default 0, in [0, 1]).
+void parse_friction(YamlSection& s, double& friction, double& restitution) {
+  friction = s.real("friction");
+  if (!(friction >= 0)) s.fail_value("friction", number_text(friction), "must be >= 0 (the Coulomb coefficient mu)");
+  restitution = s.real("restitution", 0.0);
+  if (!(restitution >= 0 && restitution <= 1))
+    s.fail_value("restitution", number_text(restitution), "must be in [0, 1]");
+}
+
+FaceCondition face_condition(const std::string& v) {
+  return v == "free"    ? FaceCondition::free
+         : v == "slip"  ? FaceCondition::slip
+         : v == "fixed" ? FaceCondition::fixed
+                        : FaceCondition::frictional;
+}
+
+// One face of the grid box: a text (free, slip, fixed), or a map
+// {condition: ..., friction: ..., restitution: ...}, which a frictional face
+// needs for its friction coefficient. `raw` is the boundaries map itself, only
+// looked at to tell the two forms apart.
+void parse_face(YamlSection& f, const YAML::Node& raw, const std::string& key, FaceCondition& condition,
+                FaceContact& contact) {
+  const YAML::Node value = raw[key];
+  if (value.IsDefined() && value.IsMap()) {
+    YamlSection m = f.section(key);
+    condition = face_condition(required_choice(m, "condition", face_conditions));
+    if (condition == FaceCondition::frictional) {
+      parse_friction(m, contact.friction, contact.restitution);
+    } else {
+      for (const char* k : {"friction", "restitution"})
+        if (m.has(k)) m.fail(k, "is only used with condition: frictional");
+    }
+    m.finish();
+    return;
+  }
+  const std::string v = f.choice(key, face_conditions, "slip");
+  if (v == "frictional")
+    f.fail_value(key, v,
+                 "needs its friction coefficient: write " + key + ": {condition: frictional, friction: MU}");
+  condition = face_condition(v);
+}
+
+// ------------------------------------------------------------ terrain files
+
+// A problem in a terrain file: its line (0: the file as a whole) and what is wrong.
+struct TerrainError {
+  int line;
+  std::string message;
+};
+
+// One number of a terrain file, as written in `token`; `what` names it.
+double terrain_number(const std::string& token, int line, const std::string& what) {
+  std::string t = token;
+  if (t.size() > 1 && t[0] == '+' && t[1] != '-' && t[1] != '+') t.erase(0, 1);  // from_chars takes no '+'
+  double v = 0;
+  const char* end = t.data() + t.size();
+  const auto [ptr, ec] = std::from_chars(t.data(), end, v);
+  if (ec == std::errc::result_out_of_range && ptr == end)
+    throw TerrainError{line, what + " '" + token + "' is not a finite number"};
+  if (t.empty() || ec != std::errc() || ptr != end) throw TerrainError{line, what + " '" + token + "' is not a number"};
+  if (!std::isfinite(v)) throw TerrainError{line, what + " '" + token + "' is not a finite number"};
+  return v;
+}
+
+std::vector<std::string> fields_of(std::string line, bool commas) {
+  if (commas) std::replace(line.begin(), line.end(), ',', ' ');
+  std::istringstream in(line);
+  std::vector<std::string> out;
+  std::string t;
+  while (in >> t) out.push_back(t);
+  return out;
+}
+
+// 2D terrain: one vertex "x height" per line (whitespace or a comma between),
+// '#' comments and blank lines, x strictly increasing, at least 2 vertices.
+std::vector<std::array<double, 2>> read_polyline(std::istream& in) {
+  std::vector<std::array<double, 2>> vertices;
+  std::string line, previous_x;
+  for (int number = 1; std::getline(in, line); ++number) {
+    const std::size_t hash = line.find('#');
+    if (hash != std::string::npos) line.erase(hash);
+    const std::vector<std::string> f = fields_of(line, true);
+    if (f.empty()) continue;
+    if (f.size() != 2)
+      throw TerrainError{number, "expected one vertex 'x height' (2 numbers), found " + std::to_string(f.size()) +
+                                     " fields"};
+    const double x = terrain_number(f[0], number, "x");
+    const double z = terrain_number(f[1], number, "height");
+    if (!vertices.empty() && !(x > vertices.back()[0]))
+      throw TerrainError{number, "x must increase (" + f[0] + " after " + previous_x + ")"};
+    vertices.push_back({x, z});
+    previous_x = f[0];
+  }
+  if (in.bad()) throw TerrainError{0, "cannot read the file"};
+  if (vertices.size() < 2)
+    throw TerrainError{0, "needs at least 2 vertices 'x height' (found " + std::to_string(vertices.size()) + ")"};
+  return vertices;
+}
+
+std::string lower_case(std::string s) {
+  for (char& ch : s) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  return s;
+}
+
+// 3D terrain: an ESRI ASCII grid. Header lines "key value" (keys in any
+// case): ncols, nrows, xllcorner | xllcenter, yllcorner | yllcenter,
+// cellsize, optional NODATA_value; then nrows lines of ncols heights, the
+// first one the northmost (largest y) row.
+void read_height_map(std::istream& in, ObstacleConfig& o) {
+  static const std::vector<std::string> known = {"ncols",     "nrows",     "xllcorner", "xllcenter",
+                                                 "yllcorner", "yllcenter", "cellsize",  "nodata_value"};
+  std::map<std::string, std::pair<double, std::string>> header;  // key -> value, as written
+  std::string line;
+  std::vector<std::string> f;
+  int number = 0;
+  bool data = false;
+  while (std::getline(in, line)) {
+    ++number;
+    f = fields_of(line, false);
+    if (f.empty()) continue;
+    const std::string key = lower_case(f[0]);
+    const bool word = std::isalpha(static_cast<unsigned char>(f[0][0])) && key != "nan" && key != "inf" &&
+                      key != "infinity";
+    if (!word) {
+      data = true;
+      break;
+    }
+    if (std::find(known.begin(), known.end(), key) == known.end())
+      throw TerrainError{number, "unknown ESRI ASCII grid header key '" + f[0] +
+                                     "' (known: ncols, nrows, xllcorner or xllcenter, yllcorner or yllcenter, "
+                                     "cellsize, NODATA_value)"};
+    if (f.size() != 2) throw TerrainError{number, "header line '" + f[0] + "' must hold one value"};
+    if (header.count(key)) throw TerrainError{number, "header key '" + f[0] + "' is given twice"};
+    header[key] = {terrain_number(f[1], number, f[0]), f[1]};
+  }
+  if (in.bad()) throw TerrainError{0, "cannot read the file"};
+  for (const char* axis : {"x", "y"}) {
+    const std::string corner = std::string(axis) + "llcorner", center = std::string(axis) + "llcenter";
+    if (header.count(corner) && header.count(center))
+      throw TerrainError{0, "the header gives both " + corner + " and " + center};
+    if (!header.count(corner) && !header.count(center))
+      throw TerrainError{0, "the header has no " + corner + " (or " + center + ")"};
+  }
+  for (const char* key : {"ncols", "nrows", "cellsize"})
+    if (!header.count(key))
+      throw TerrainError{0, std::string("the header has no ") + key + " (an ESRI ASCII grid starts with ncols, "
+                                                                      "nrows, xllcorner, yllcorner, cellsize)"};
+  int count[2] = {0, 0};
+  for (int k = 0; k < 2; ++k) {
+    const char* key = k == 0 ? "ncols" : "nrows";
+    const double v = header[key].first;
+    if (!(v == std::floor(v) && v >= 2 && v <= 1e8))
+      throw TerrainError{0, std::string(key) + " = " + header[key].second + " must be a whole number from 2 to 1e8"};
+    count[k] = static_cast<int>(v);
+  }
+  const int nx = count[0], ny = count[1];
+  const double spacing = header["cellsize"].first;
+  if (!(spacing > 0)) throw TerrainError{0, "cellsize = " + header["cellsize"].second + " must be > 0"};
+  const bool has_nodata = header.count("nodata_value") > 0;
+  const double nodata = has_nodata ? header["nodata_value"].first : 0.0;
+
+  std::vector<double> rows;  // north row first, as in the file
+  int row = 0;
+  for (bool first = true; data; first = false) {
+    if (!first) {  // the first data line is already split
+      if (!std::getline(in, line)) break;
+      ++number;
+      f = fields_of(line, false);
+      if (f.empty()) continue;
+    }
+    if (row == ny) throw TerrainError{number, "more than nrows = " + std::to_string(ny) + " rows of heights"};
+    if (static_cast<int>(f.size()) != nx)
+      throw TerrainError{number, "row " + std::to_string(row + 1) + " has " + std::to_string(f.size()) +
+                                     " heights, ncols = " + std::to_string(nx)};
+    for (int i = 0; i < nx; ++i) {
+      const std::string where = "height in row " + std::to_string(row + 1) + ", column " + std::to_string(i + 1);
+      const double z = terrain_number(f[i], number, where);
+      if (has_nodata && z == nodata)
+        throw TerrainError{number, "the " + where + " is the NODATA_value " + f[i] +
+                                       ": the height map must have a height everywhere"};
+      rows.push_back(z);
+    }
+    ++row;
+  }
+  if (in.bad()) throw TerrainError{0, "cannot read the file"};
+  if (row != ny)
+    throw TerrainError{0, std::to_string(row) + " rows of heights, but nrows = " + std::to_string(ny)};
+
+  o.map_nx = nx;
+  o.map_ny = ny;
+  o.map_spacing = spacing;
+  o.map_origin[0] = header.count("xllcenter") ? header["xllcenter"].first : header["xllcorner"].first + 0.5 * spacing;
+  o.map_origin[1] = header.count("yllcenter") ? header["yllcenter"].first : header["yllcorner"].first + 0.5 * spacing;
+  o.heights.assign(static_cast<std::size_t>(nx) * ny, 0.0);
+  for (int r = 0; r < ny; ++r)  // file row r is y index j = ny - 1 - r (j = 0 the southmost)
+    for (int i = 0; i < nx; ++i)
+      o.heights[static_cast<std::size_t>(ny - 1 - r) * nx + i] = rows[static_cast<std::size_t>(r) * nx + i];
+}
+
+// ------------------------------------------------------------ obstacles
+
+// Where the box [lo, up], translated by velocity * t for t in [0, end],
+// misses the grid box on some axis ("" if it touches it at some time).
+std::string outside_grid(const CaseConfig& c, const std::vector<double>& lo, const std::vector<double>& up,
+                         const std::vector<double>& velocity) {
+  for (int a = 0; a < c.dim; ++a) {
+    const double d = velocity[a] * c.time.end;
+    if (up[a] + std::max(0.0, d) < c.grid.lower[a]) return std::string("below grid.lower on the ") + axis_names[a] + " axis";
+    if (lo[a] + std::min(0.0, d) > c.grid.upper[a]) return std::string("above grid.upper on the ") + axis_names[a] + " axis";
+  }
+  return "";
+}
+
+ObstacleConfig parse_obstacle(YamlSection& o, const CaseConfig& c) {
+  ObstacleConfig ob;
+  ob.name = o.text("name");
+  const bool plain = !ob.name.empty() && std::all_of(ob.name.begin(), ob.name.end(), [](char ch) {
+    return std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' || ch == '-' || ch == '.';
+  });
+  if (!plain)
+    o.fail_value("name", ob.name, "must be a non-empty name of letters, digits, '_', '-' and '.' (it names the obstacle in the output)");
+  for (const char* face : face_names)
+    if (ob.name == face)
+      o.fail_value("name", ob.name, "is the name of a face of the grid box (x_min ... z_max); choose another");
+  for (const auto& other : c.obstacles)
+    if (other.name == ob.name) o.fail_value("name", ob.name, "is used by two obstacles");
+
+  const std::string type = required_choice(o, "type", {"half_plane", "box", "terrain"});
+  // Another type's geometry key is a mistake worth naming as such.
+  static const std::vector<std::pair<std::string, std::string>> geometry = {
+      {"point", "half_plane"}, {"normal", "half_plane"}, {"lower", "box"}, {"upper", "box"}, {"file", "terrain"}};
+  for (const auto& [key, owner] : geometry)
+    if (owner != type && o.has(key)) o.fail(key, "is a key of " + owner + " obstacles, not of " + type + " ones");
+
+  parse_friction(o, ob.friction, ob.restitution);
+  ob.velocity = o.has("velocity") ? o.reals("velocity", c.dim) : std::vector<double>(c.dim, 0.0);
+  const bool moving = std::any_of(ob.velocity.begin(), ob.velocity.end(), [](double v) { return v != 0.0; });
+  const std::string during = moving ? ", for the whole run" : "";
+
+  if (type == "half_plane") {
+    ob.shape = ObstacleShape::half_plane;
+    ob.point = o.reals("point", c.dim);
+    ob.normal = o.reals("normal", c.dim);
+    double norm = 0.0;
+    for (double v : ob.normal) norm += v * v;
+    norm = std::sqrt(norm);
+    if (!(norm > 0) || !std::isfinite(norm))
+      o.fail_value("normal", list_text(ob.normal), "must not be zero (it points out of the solid, into the free side)");
+    for (double& v : ob.normal) v /= norm;
+    // Signed distances of the grid corners at t = 0 and their drift until time.end.
+    double lowest = std::numeric_limits<double>::infinity(), highest = -lowest, drift = 0.0;
+    for (int corner = 0; corner < (1 << c.dim); ++corner) {
+      double g = 0.0;
+      for (int a = 0; a < c.dim; ++a)
+        g += ((corner >> a & 1 ? c.grid.upper[a] : c.grid.lower[a]) - ob.point[a]) * ob.normal[a];
+      lowest = std::min(lowest, g);
+      highest = std::max(highest, g);
+    }
+    for (int a = 0; a < c.dim; ++a) drift += ob.velocity[a] * ob.normal[a] * c.time.end;
+    if (highest <= 0)
+      o.fail("point", "the whole grid box lies inside the obstacle (on the solid side of the plane; the normal "
+                      "points out of the solid)");
+    if (lowest > 0 && lowest - drift > 0)
+      o.fail("point", "the half-plane lies outside the grid box (every grid corner is on its free side" + during + ")");
+  } else if (type == "box") {
+    ob.shape = ObstacleShape::box;
+    ob.lower = o.reals("lower", c.dim);
+    ob.upper = o.reals("upper", c.dim);
+    bool covers = true;
+    for (int a = 0; a < c.dim; ++a) {
+      if (!(ob.upper[a] > ob.lower[a])) o.fail("upper", "must be above lower on every axis");
+      covers = covers && ob.lower[a] <= c.grid.lower[a] && ob.upper[a] >= c.grid.upper[a];
+    }
+    if (covers) o.fail("lower", "the whole grid box lies inside the obstacle");
+    const std::string problem = outside_grid(c, ob.lower, ob.upper, ob.velocity);
+    if (!problem.empty())
+      o.fail(problem[0] == 'b' ? "upper" : "lower", "the box lies outside the grid box (" + problem + during + ")");
+  } else {
+    ob.shape = ObstacleShape::terrain;
+    ob.file = o.text("file");
+    // Relative to the case file's directory (so a case and its terrain move together).
+    std::filesystem::path path(ob.file);
+    if (path.is_relative()) path = std::filesystem::path(c.source_file).parent_path() / path;
+    std::error_code ec;
+    if (std::filesystem::is_directory(path, ec))
+      o.fail_value("file", ob.file, "is a directory, not a terrain file (" + path.string() + ")");
+    std::ifstream in(path);
+    if (!in)
+      o.fail_value("file", ob.file,
+                   "cannot open the terrain file " + path.string() + " (relative paths start at the case file's directory)");
+    std::vector<double> lo(c.dim), up(c.dim);
+    try {
+      if (c.dim == 2) {
+        ob.polyline = read_polyline(in);
+        lo = {ob.polyline.front()[0], ob.polyline.front()[1]};
+        up = {ob.polyline.back()[0], ob.polyline.front()[1]};
+        for (const auto& v : ob.polyline) lo[1] = std::min(lo[1], v[1]), up[1] = std::max(up[1], v[1]);
+      } else {
+        read_height_map(in, ob);
+        lo = {ob.map_origin[0], ob.map_origin[1], ob.heights[0]};
+        up = {ob.map_origin[0] + (ob.map_nx - 1) * ob.map_spacing, ob.map_origin[1] + (ob.map_ny - 1) * ob.map_spacing,
+              ob.heights[0]};
+        for (double z : ob.heights) lo[2] = std::min(lo[2], z), up[2] = std::max(up[2], z);
+      }
+    } catch (const TerrainError& e) {
+      o.fail_value("file", ob.file, ob.file + (e.line > 0 ? ":" + std::to_string(e.line) : "") + ": " + e.message);
+    }
+    const std::string problem = outside_grid(c, lo, up, ob.velocity);
+    if (!problem.empty())
+      o.fail_value("file", ob.file, "the terrain lies outside the grid box (" + problem + during + ")");
+  }
+  o.finish();
+  return ob;
 }
 
 // Whether the seeding lattice (src/particles/seeding.cpp: points at
@@ -281,7 +623,50 @@ bool body_has_particle(const CaseConfig& c, const BodyConfig& body) {
   return false;
 }
 
-CaseConfig parse_root(YamlSection& root) {
+// "" if some lattice point of the body (as in body_has_particle) lies outside
+// every obstacle at t = 0; otherwise the obstacles that bury it, for a message.
+template <int dim>
+std::string body_buried_by(const CaseConfig& c, const BodyConfig& body) {
+  std::vector<Obstacle<dim>> obstacles;
+  for (const ObstacleConfig& o : c.obstacles) obstacles.emplace_back(o);
+  const double spacing = c.grid.cell_size / body.particles_per_cell;
+  std::array<long, dim> first{}, last{}, s{};
+  for (int a = 0; a < dim; ++a) {
+    first[a] = static_cast<long>(std::ceil((body.box_lower[a] - c.grid.lower[a]) / spacing - 0.5 - 1e-9));
+    last[a] = static_cast<long>(std::floor((body.box_upper[a] - c.grid.lower[a]) / spacing - 0.5 + 1e-9));
+    if (last[a] < first[a]) return "";  // no lattice point at all: reported before
+  }
+  std::vector<bool> burying(obstacles.size(), false);
+  for (s = first;;) {
+    Vector<dim> x;
+    for (int a = 0; a < dim; ++a) x[a] = c.grid.lower[a] + (s[a] + 0.5) * spacing;
+    bool inside_body = true;
+    if (!body.polygon.empty()) {
+      inside_body = false;
+      const auto& poly = body.polygon;
+      for (std::size_t k = 0, l = poly.size() - 1; k < poly.size(); l = k++)
+        if ((poly[k][1] > x[1]) != (poly[l][1] > x[1]) &&
+            x[0] < poly[k][0] + (x[1] - poly[k][1]) * (poly[l][0] - poly[k][0]) / (poly[l][1] - poly[k][1]))
+          inside_body = !inside_body;
+    }
+    if (inside_body) {
+      bool buried = false;
+      for (std::size_t o = 0; o < obstacles.size(); ++o)
+        if (obstacles[o].gap(x, 0.0).gap < 0.0) buried = true, burying[o] = true;
+      if (!buried) return "";
+    }
+    int a = 0;
+    while (a < dim && s[a] == last[a]) s[a] = first[a], ++a;
+    if (a == dim) break;
+    ++s[a];
+  }
+  std::string names;
+  for (std::size_t o = 0; o < obstacles.size(); ++o)
+    if (burying[o]) names += (names.empty() ? "obstacle '" : ", '") + obstacles[o].name() + "'";
+  return names;
+}
+
+CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
   CaseConfig c;
   c.source_file = root.file();
 
@@ -350,7 +735,8 @@ CaseConfig parse_root(YamlSection& root) {
     c.materials.push_back(std::move(mc));
   }
 
-  for (YamlSection& b : root.list("bodies")) {
+  std::vector<YamlSection> body_sections = root.list("bodies");
+  for (YamlSection& b : body_sections) {
     BodyConfig bc;
     bc.name = b.text("name");
     const std::string material = b.text("material");
@@ -437,9 +823,31 @@ CaseConfig parse_root(YamlSection& root) {
 
   if (root.has("boundaries")) {
     YamlSection f = root.section("boundaries");
-    const char* names[6] = {"x_min", "x_max", "y_min", "y_max", "z_min", "z_max"};
-    for (int i = 0; i < 2 * c.dim; ++i) c.faces[i] = parse_face(f, names[i]);
+    const YAML::Node raw = doc["boundaries"];
+    for (int i = 0; i < 2 * c.dim; ++i) parse_face(f, raw, face_names[i], c.faces[i], c.face_contact[i]);
     f.finish();
+  }
+
+  if (root.has("obstacles"))
+    for (YamlSection& o : root.list("obstacles")) c.obstacles.push_back(parse_obstacle(o, c));
+  // Seeding leaves out the lattice points inside obstacles: a body buried
+  // entirely would silently vanish.
+  if (!c.obstacles.empty())
+    for (std::size_t b = 0; b < c.bodies.size(); ++b) {
+      const std::string buried_by =
+          c.dim == 2 ? body_buried_by<2>(c, c.bodies[b]) : body_buried_by<3>(c, c.bodies[b]);
+      if (!buried_by.empty())
+        body_sections[b].fail(c.bodies[b].polygon.empty() ? "box" : "polygon",
+                              "holds no particle outside the obstacles (its particles would all lie inside " +
+                                  buried_by + ")");
+    }
+
+  if (root.has("contact")) {
+    YamlSection k = root.section("contact");
+    c.contact.gap_prediction = k.real("gap_prediction", 0.5);
+    if (!(c.contact.gap_prediction >= 0 && c.contact.gap_prediction <= 1))
+      k.fail_value("gap_prediction", number_text(c.contact.gap_prediction), "must be in [0, 1]");
+    k.finish();
   }
 
   if (root.has("transfer")) {
@@ -495,7 +903,7 @@ CaseConfig parse_case(const std::string& yaml_text, const std::string& name) {
     throw InputError(name + ": the case file must be a YAML map (grid, time, materials, bodies, ...); " + what);
   }
   YamlSection root(doc, "", name);
-  return parse_root(root);
+  return parse_root(root, doc);
 }
 
 CaseConfig load_case(const std::string& file) {

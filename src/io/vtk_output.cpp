@@ -1,7 +1,10 @@
 #include "talus/io/vtk_output.hpp"
 
 #include <vtkCellArray.h>
+#include <vtkCellData.h>
+#include <vtkCellType.h>
 #include <vtkDoubleArray.h>
+#include <vtkFieldData.h>
 #include <vtkIntArray.h>
 #include <vtkMPI.h>
 #include <vtkMPICommunicator.h>
@@ -9,17 +12,42 @@
 #include <vtkNew.h>
 #include <vtkPointData.h>
 #include <vtkPoints.h>
+#include <vtkPolyData.h>
+#include <vtkStringArray.h>
 #include <vtkTypeInt64Array.h>
 #include <vtkUnstructuredGrid.h>
 #include <vtkXMLPUnstructuredGridWriter.h>
+#include <vtkXMLPolyDataWriter.h>
+#include <vtkXMLUnstructuredGridWriter.h>
 
+#include <algorithm>
+#include <charconv>
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
+#include <limits>
 #include <fstream>
 #include <iomanip>
 #include <sstream>
 
 namespace talus {
+
+void write_pvd_file(const std::string& path, const std::vector<std::pair<double, std::string>>& entries) {
+  // Written to a temporary name and renamed: an interrupted run never leaves a torn index.
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp);
+    out << "<?xml version=\"1.0\"?>\n"
+        << "<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n  <Collection>\n";
+    out << std::setprecision(12);
+    for (const auto& [t, f] : entries)
+      out << "    <DataSet timestep=\"" << t << "\" group=\"\" part=\"0\" file=\"" << f << "\"/>\n";
+    out << "  </Collection>\n</VTKFile>\n";
+    if (!out) throw std::runtime_error("cannot write " + tmp);
+  }
+  std::filesystem::rename(tmp, path);
+}
 
 template <int dim>
 VtkSeries<dim>::VtkSeries(MPI_Comm comm, std::string directory, std::string name)
@@ -172,22 +200,562 @@ void VtkSeries<dim>::resume(const std::vector<std::pair<double, std::string>>& e
 
 template <int dim>
 void VtkSeries<dim>::write_pvd() const {
-  // Written to a temporary name and renamed: an interrupted run never leaves a torn index.
-  const std::string tmp = pvd_ + ".tmp";
-  {
-    std::ofstream out(tmp);
-    out << "<?xml version=\"1.0\"?>\n"
-        << "<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n  <Collection>\n";
-    out << std::setprecision(12);
-    for (const auto& [t, f] : entries_)
-      out << "    <DataSet timestep=\"" << t << "\" group=\"\" part=\"0\" file=\"" << f << "\"/>\n";
-    out << "  </Collection>\n</VTKFile>\n";
-    if (!out) throw std::runtime_error("cannot write " + tmp);
-  }
-  std::filesystem::rename(tmp, pvd_);
+  write_pvd_file(pvd_, entries_);
 }
 
 template class VtkSeries<2>;
 template class VtkSeries<3>;
+
+// ------------------------------------------------------------ obstacle drawing
+
+namespace {
+
+using Point3 = std::array<double, 3>;
+
+template <int dim>
+Point3 to_point(const Vector<dim>& x) {
+  Point3 p{0.0, 0.0, 0.0};
+  for (int a = 0; a < dim; ++a) p[a] = x[a];
+  return p;
+}
+
+// Liang-Barsky: the part t0 <= t <= t1 of a + t d (t0, t1 may be infinite)
+// inside lo <= x <= hi; false if there is none.
+template <int dim>
+bool clip_line(const Vector<dim>& a, const Vector<dim>& d, const Vector<dim>& lo, const Vector<dim>& hi, double& t0,
+               double& t1) {
+  for (int k = 0; k < dim; ++k) {
+    if (d[k] == 0.0) {
+      if (a[k] < lo[k] || a[k] > hi[k]) return false;
+      continue;
+    }
+    double ta = (lo[k] - a[k]) / d[k], tb = (hi[k] - a[k]) / d[k];
+    if (ta > tb) std::swap(ta, tb);
+    t0 = std::max(t0, ta);
+    t1 = std::min(t1, tb);
+    if (t0 > t1) return false;
+  }
+  return true;
+}
+
+// Sutherland-Hodgman: a convex polygon clipped to the box.
+std::vector<Vector<3>> clip_polygon(std::vector<Vector<3>> poly, const Vector<3>& lo, const Vector<3>& hi) {
+  for (int k = 0; k < 3 && !poly.empty(); ++k)
+    for (int side = 0; side < 2 && !poly.empty(); ++side) {
+      // inside: s(x) >= 0
+      const auto s = [&](const Vector<3>& x) { return side == 0 ? x[k] - lo[k] : hi[k] - x[k]; };
+      std::vector<Vector<3>> out;
+      for (std::size_t i = 0; i < poly.size(); ++i) {
+        const Vector<3>& p = poly[i];
+        const Vector<3>& q = poly[(i + 1) % poly.size()];
+        const double sp = s(p), sq = s(q);
+        if (sp >= 0.0) out.push_back(p);
+        if ((sp >= 0.0) != (sq >= 0.0)) {
+          Vector<3> x = p + (sp / (sp - sq)) * (q - p);
+          x[k] = side == 0 ? lo[k] : hi[k];  // exactly on the face
+          out.push_back(x);
+        }
+      }
+      poly = std::move(out);
+    }
+  return poly;
+}
+
+// The polygon where the plane (x - p) . n = 0 cuts the box: the points where
+// it crosses the 12 edges (a box vertex on the plane counts once), ordered
+// counter-clockwise about n.
+std::vector<Vector<3>> plane_section(const Vector<3>& p, const Vector<3>& n, const Vector<3>& lo, const Vector<3>& hi) {
+  const double size = (hi - lo).norm();
+  const double tol = 1e-12 * size;
+  std::vector<Vector<3>> pts;
+  const auto add = [&](const Vector<3>& x) {
+    for (const auto& y : pts)
+      if ((x - y).norm() <= tol) return;
+    pts.push_back(x);
+  };
+  const auto corner = [&](int c) -> Vector<3> {
+    return Vector<3>(c & 1 ? hi[0] : lo[0], c & 2 ? hi[1] : lo[1], c & 4 ? hi[2] : lo[2]);
+  };
+  for (int c = 0; c < 8; ++c)
+    for (int k = 0; k < 3; ++k) {
+      if (c & (1 << k)) continue;  // each edge once: from its lower corner along axis k
+      const Vector<3> a = corner(c), b = corner(c | (1 << k));
+      double fa = (a - p).dot(n), fb = (b - p).dot(n);
+      if (std::abs(fa) <= tol) fa = 0.0;
+      if (std::abs(fb) <= tol) fb = 0.0;
+      if (fa == 0.0) add(a);
+      if (fb == 0.0) add(b);
+      if ((fa < 0.0 && fb > 0.0) || (fa > 0.0 && fb < 0.0)) add(a + fa / (fa - fb) * (b - a));
+    }
+  if (pts.size() < 3) return {};
+  Vector<3> centre = Vector<3>::Zero();
+  for (const auto& x : pts) centre += x;
+  centre /= static_cast<double>(pts.size());
+  // An in-plane basis (e1, e2) with e1 x e2 = n.
+  const Vector<3> helper = std::abs(n[0]) < 0.9 ? Vector<3>(1, 0, 0) : Vector<3>(0, 1, 0);
+  const Vector<3> e1 = n.cross(helper).normalized(), e2 = n.cross(e1);
+  std::sort(pts.begin(), pts.end(), [&](const Vector<3>& x, const Vector<3>& y) {
+    const auto angle = [&](const Vector<3>& z) { return std::atan2((z - centre).dot(e2), (z - centre).dot(e1)); };
+    return angle(x) < angle(y);
+  });
+  return pts;
+}
+
+}  // namespace
+
+template <int dim>
+ObstacleDrawing draw_obstacles(const std::vector<Obstacle<dim>>& obstacles, const Vector<dim>& lo,
+                               const Vector<dim>& hi, double time) {
+  ObstacleDrawing d;
+  const double size = (hi - lo).norm();
+  const auto add_point = [&](const Point3& p) {
+    d.points.push_back(p);
+    return static_cast<long>(d.points.size() - 1);
+  };
+  const auto add_cell = [&](int type, const std::vector<Point3>& pts, int obstacle) {
+    ObstacleDrawing::Cell c;
+    c.vtk_type = type;
+    c.obstacle = obstacle;
+    for (const auto& p : pts) c.points.push_back(add_point(p));
+    d.cells.push_back(std::move(c));
+  };
+  for (std::size_t o = 0; o < obstacles.size(); ++o) {
+    const ObstacleConfig& c = obstacles[o].config();
+    const Vector<dim> shift = time * obstacles[o].velocity();
+    const int id = static_cast<int>(o);
+    switch (c.shape) {
+      case ObstacleShape::half_plane: {
+        Vector<dim> p, n;
+        for (int a = 0; a < dim; ++a) p[a] = c.point[a], n[a] = c.normal[a];
+        n.normalize();
+        p += shift;
+        if constexpr (dim == 2) {
+          const Vector<2> t(-n[1], n[0]);
+          double t0 = -std::numeric_limits<double>::infinity(), t1 = std::numeric_limits<double>::infinity();
+          if (clip_line<2>(p, t, lo, hi, t0, t1) && t1 - t0 > 1e-12 * size)
+            add_cell(VTK_LINE, {to_point<2>(p + t0 * t), to_point<2>(p + t1 * t)}, id);
+        } else {
+          const auto poly = plane_section(p, n, lo, hi);
+          if (poly.size() >= 3) {
+            std::vector<Point3> pts;
+            for (const auto& x : poly) pts.push_back(to_point<3>(x));
+            add_cell(VTK_POLYGON, pts, id);
+          }
+        }
+        break;
+      }
+      case ObstacleShape::box: {
+        Vector<dim> bl, bh;
+        bool empty = false;
+        for (int a = 0; a < dim; ++a) {
+          bl[a] = std::max(c.lower[a] + shift[a], lo[a]);
+          bh[a] = std::min(c.upper[a] + shift[a], hi[a]);
+          empty |= !(bh[a] > bl[a]);
+        }
+        if (empty) break;
+        if constexpr (dim == 2) {
+          add_cell(VTK_POLYGON, {Point3{bl[0], bl[1], 0}, Point3{bh[0], bl[1], 0}, Point3{bh[0], bh[1], 0},
+                                 Point3{bl[0], bh[1], 0}},
+                   id);
+        } else {
+          // Face k, side s: vertices (0,0), (1,0), (1,1), (0,1) in the axes
+          // (k+1, k+2), whose cross product is +e_k; reversed on the lower side.
+          for (int k = 0; k < 3; ++k)
+            for (int side = 0; side < 2; ++side) {
+              const int k1 = (k + 1) % 3, k2 = (k + 2) % 3;
+              std::vector<Point3> pts;
+              const int uv[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+              for (int v = 0; v < 4; ++v) {
+                Point3 x;
+                x[k] = side ? bh[k] : bl[k];
+                x[k1] = uv[v][0] ? bh[k1] : bl[k1];
+                x[k2] = uv[v][1] ? bh[k2] : bl[k2];
+                pts.push_back(x);
+              }
+              if (side == 0) std::reverse(pts.begin(), pts.end());
+              add_cell(VTK_QUAD, pts, id);
+            }
+        }
+        break;
+      }
+      case ObstacleShape::terrain: {
+        if constexpr (dim == 2) {
+          // Segment s runs from vertex s to s + 1; the first and the last
+          // are extended beyond the ends (as the gap sees them).
+          const auto& v = c.polyline;
+          const std::size_t segments = v.size() - 1;
+          std::vector<Point3> line;
+          bool open = false;  // the last segment reached its end unclipped
+          for (std::size_t s = 0; s < segments; ++s) {
+            const Vector<2> a = Vector<2>(v[s][0], v[s][1]) + shift, b = Vector<2>(v[s + 1][0], v[s + 1][1]) + shift;
+            double t0 = s == 0 ? -std::numeric_limits<double>::infinity() : 0.0;
+            double t1 = s + 1 == segments ? std::numeric_limits<double>::infinity() : 1.0;
+            const bool inside = clip_line<2>(a, b - a, lo, hi, t0, t1);
+            if (!inside || t1 <= t0) {
+              if (line.size() >= 2) add_cell(VTK_POLY_LINE, line, id);
+              line.clear();
+              open = false;
+              continue;
+            }
+            const Point3 pa = t0 == 0.0 ? to_point<2>(a) : to_point<2>(a + t0 * (b - a));
+            const Point3 pb = t1 == 1.0 ? to_point<2>(b) : to_point<2>(a + t1 * (b - a));
+            if (!(open && t0 == 0.0)) {
+              if (line.size() >= 2) add_cell(VTK_POLY_LINE, line, id);
+              line.assign(1, pa);
+            }
+            line.push_back(pb);
+            open = t1 == 1.0;
+          }
+          if (line.size() >= 2) add_cell(VTK_POLY_LINE, line, id);
+        } else {
+          const double s = c.map_spacing;
+          const auto node = [&](int i, int j) -> Vector<3> {
+            return Vector<3>(c.map_origin[0] + i * s, c.map_origin[1] + j * s,
+                             c.heights[static_cast<std::size_t>(j) * c.map_nx + i]) +
+                   shift;
+          };
+          const auto inside = [&](const Vector<3>& x) {
+            for (int a = 0; a < 3; ++a)
+              if (x[a] < lo[a] || x[a] > hi[a]) return false;
+            return true;
+          };
+          // Map nodes are shared by the triangles that keep them whole.
+          std::vector<long> node_point(static_cast<std::size_t>(c.map_nx) * c.map_ny, -1);
+          const auto node_id = [&](int i, int j) {
+            long& k = node_point[static_cast<std::size_t>(j) * c.map_nx + i];
+            if (k < 0) k = add_point(to_point<3>(node(i, j)));
+            return k;
+          };
+          for (int j = 0; j + 1 < c.map_ny; ++j)
+            for (int i = 0; i + 1 < c.map_nx; ++i) {
+              const int tri[2][3][2] = {{{0, 0}, {1, 0}, {1, 1}}, {{0, 0}, {1, 1}, {0, 1}}};
+              for (const auto& t : tri) {
+                std::vector<Vector<3>> poly;
+                bool whole = true;
+                for (const auto& ij : t) {
+                  poly.push_back(node(i + ij[0], j + ij[1]));
+                  whole &= inside(poly.back());
+                }
+                if (whole) {
+                  ObstacleDrawing::Cell cell;
+                  cell.vtk_type = VTK_TRIANGLE;
+                  cell.obstacle = id;
+                  for (const auto& ij : t) cell.points.push_back(node_id(i + ij[0], j + ij[1]));
+                  d.cells.push_back(std::move(cell));
+                  continue;
+                }
+                poly = clip_polygon(std::move(poly), lo, hi);
+                if (poly.size() < 3) continue;
+                std::vector<Point3> pts;
+                for (const auto& x : poly) pts.push_back(to_point<3>(x));
+                add_cell(VTK_POLYGON, pts, id);
+              }
+            }
+        }
+        break;
+      }
+    }
+  }
+  return d;
+}
+
+template ObstacleDrawing draw_obstacles<2>(const std::vector<Obstacle<2>>&, const Vector<2>&, const Vector<2>&,
+                                           double);
+template ObstacleDrawing draw_obstacles<3>(const std::vector<Obstacle<3>>&, const Vector<3>&, const Vector<3>&,
+                                           double);
+
+namespace {
+
+int rank_of(MPI_Comm comm) {
+  int rank;
+  MPI_Comm_rank(comm, &rank);
+  return rank;
+}
+
+std::string numbered(const std::string& name, std::size_t index) {
+  std::ostringstream stem;
+  stem << name << "_" << std::setw(6) << std::setfill('0') << index;
+  return stem.str();
+}
+
+// The entries of a series written alongside the particles: the particle
+// output k is particles_k; the file of this series at that time is
+// <name>_k<extension>, if it exists.
+std::vector<std::pair<double, std::string>> companion_entries(
+    const std::string& directory, const std::string& name, const std::string& extension,
+    const std::vector<std::pair<double, std::string>>& particle_entries) {
+  std::vector<std::pair<double, std::string>> entries;
+  for (std::size_t k = 0; k < particle_entries.size(); ++k) {
+    const std::string file = numbered(name, k) + extension;
+    if (std::filesystem::exists(directory + "/" + file)) entries.emplace_back(particle_entries[k].first, file);
+  }
+  return entries;
+}
+
+}  // namespace
+
+template <int dim>
+ObstacleSeries<dim>::ObstacleSeries(MPI_Comm comm, std::string directory, const Vector<dim>& lower,
+                                    const Vector<dim>& upper)
+    : comm_(comm), directory_(std::move(directory)), lower_(lower), upper_(upper) {
+  if (rank_of(comm_) == 0) std::filesystem::create_directories(directory_);
+}
+
+template <int dim>
+std::string ObstacleSeries<dim>::write(const std::vector<Obstacle<dim>>& obstacles, double time, std::size_t index) {
+  const std::string stem = numbered("obstacles", index);
+  const std::string file = directory_ + "/" + stem + ".vtp";
+  if (rank_of(comm_) != 0) return file;
+  const ObstacleDrawing drawing = draw_obstacles<dim>(obstacles, lower_, upper_, time);
+  vtkNew<vtkPoints> points;
+  points->SetDataTypeToDouble();
+  points->SetNumberOfPoints(static_cast<vtkIdType>(drawing.points.size()));
+  for (std::size_t p = 0; p < drawing.points.size(); ++p)
+    points->SetPoint(static_cast<vtkIdType>(p), drawing.points[p].data());
+  // vtkPolyData numbers its cells lines first, then polygons: the cell data follow that order.
+  vtkNew<vtkCellArray> lines, polys;
+  vtkNew<vtkIntArray> obstacle;
+  obstacle->SetName("obstacle");
+  vtkNew<vtkDoubleArray> friction;
+  friction->SetName("friction");
+  for (const bool line_cells : {true, false})
+    for (const auto& c : drawing.cells) {
+      const bool is_line = c.vtk_type == VTK_LINE || c.vtk_type == VTK_POLY_LINE;
+      if (is_line != line_cells) continue;
+      std::vector<vtkIdType> ids(c.points.begin(), c.points.end());
+      vtkCellArray* array = is_line ? lines.GetPointer() : polys.GetPointer();
+      array->InsertNextCell(static_cast<vtkIdType>(ids.size()), ids.data());
+      obstacle->InsertNextValue(c.obstacle);
+      friction->InsertNextValue(obstacles[c.obstacle].friction());
+    }
+  vtkNew<vtkPolyData> pd;
+  pd->SetPoints(points);
+  pd->SetLines(lines);
+  pd->SetPolys(polys);
+  pd->GetCellData()->AddArray(obstacle);
+  pd->GetCellData()->AddArray(friction);
+  pd->GetCellData()->SetActiveScalars("obstacle");
+  vtkNew<vtkStringArray> names;
+  names->SetName("obstacle_names");
+  for (const auto& o : obstacles) names->InsertNextValue(o.name());
+  pd->GetFieldData()->AddArray(names);
+  // Written to a temporary name and renamed, then listed in the .pvd.
+  const std::string tmp = file + ".tmp";
+  vtkNew<vtkXMLPolyDataWriter> writer;
+  writer->SetInputData(pd);
+  writer->SetFileName(tmp.c_str());
+  writer->SetDataModeToAppended();
+  writer->EncodeAppendedDataOff();
+  writer->SetCompressorTypeToZLib();
+  if (writer->Write() != 1) throw std::runtime_error("VTK could not write " + tmp);
+  std::filesystem::rename(tmp, file);
+  entries_.emplace_back(time, stem + ".vtp");
+  write_pvd_file(directory_ + "/obstacles.pvd", entries_);
+  return file;
+}
+
+template <int dim>
+void ObstacleSeries<dim>::resume(const std::vector<std::pair<double, std::string>>& particle_entries) {
+  if (rank_of(comm_) != 0) return;
+  entries_ = companion_entries(directory_, "obstacles", ".vtp", particle_entries);
+  write_pvd_file(directory_ + "/obstacles.pvd", entries_);
+}
+
+template <int dim>
+ContactSeries<dim>::ContactSeries(MPI_Comm comm, std::string directory)
+    : comm_(comm), directory_(std::move(directory)) {
+  if (rank_of(comm_) == 0) std::filesystem::create_directories(directory_);
+  MPI_Barrier(comm_);
+}
+
+template <int dim>
+std::string ContactSeries<dim>::write(const std::vector<ContactSample<dim>>& contacts, double time,
+                                      std::size_t index) {
+  const vtkIdType n = static_cast<vtkIdType>(contacts.size());
+  vtkNew<vtkPoints> points;
+  points->SetDataTypeToDouble();
+  points->SetNumberOfPoints(n);
+  vtkNew<vtkCellArray> cells;
+  vtkNew<vtkDoubleArray> force;
+  force->SetName("contact_force");
+  force->SetNumberOfComponents(3);
+  force->SetNumberOfTuples(n);
+  vtkNew<vtkIntArray> obstacle, state;
+  obstacle->SetName("obstacle");
+  obstacle->SetNumberOfTuples(n);
+  state->SetName("contact_state");
+  state->SetNumberOfTuples(n);
+  for (vtkIdType p = 0; p < n; ++p) {
+    const ContactSample<dim>& c = contacts[static_cast<std::size_t>(p)];
+    points->SetPoint(p, to_point<dim>(c.position).data());
+    force->SetTuple(p, to_point<dim>(c.force).data());
+    obstacle->SetValue(p, c.obstacle);
+    state->SetValue(p, c.state);
+    cells->InsertNextCell(1, &p);
+  }
+  vtkNew<vtkUnstructuredGrid> ug;
+  ug->SetPoints(points);
+  ug->SetCells(VTK_VERTEX, cells);
+  ug->GetPointData()->AddArray(force);
+  ug->GetPointData()->AddArray(obstacle);
+  ug->GetPointData()->AddArray(state);
+  ug->GetPointData()->SetActiveVectors("contact_force");
+
+  const int rank = rank_of(comm_);
+  int size;
+  MPI_Comm_size(comm_, &size);
+  const std::string stem = numbered("contacts", index);
+  const std::string file = directory_ + "/" + stem + ".pvtu";
+  // As for the particles: pieces and .pvtu staged, moved into place once
+  // every rank has written, the .pvtu last, then the .pvd. Every rank writes
+  // its piece, empty or not, so the .pvtu always lists one piece per rank.
+  const std::string staging = directory_ + "/.staging_" + stem;
+  if (rank == 0) std::filesystem::create_directories(staging);
+  MPI_Barrier(comm_);
+  const std::string piece = stem + "_" + std::to_string(rank) + ".vtu";
+  vtkNew<vtkXMLUnstructuredGridWriter> writer;
+  writer->SetInputData(ug);
+  writer->SetFileName((staging + "/" + piece).c_str());
+  writer->SetDataModeToAppended();
+  writer->EncodeAppendedDataOff();
+  writer->SetCompressorTypeToZLib();
+  writer->SetHeaderTypeToUInt32();
+  int ok = writer->Write() == 1, all_ok = 0;
+  MPI_Allreduce(&ok, &all_ok, 1, MPI_INT, MPI_MIN, comm_);
+  if (!all_ok) throw std::runtime_error("VTK could not write the contact pieces in " + staging);
+  std::filesystem::rename(staging + "/" + piece, directory_ + "/" + piece);
+  MPI_Barrier(comm_);
+  if (rank == 0) {
+    const std::string staged = staging + "/" + stem + ".pvtu";
+    {
+      std::ofstream out(staged);
+      out << "<?xml version=\"1.0\"?>\n"
+          << "<VTKFile type=\"PUnstructuredGrid\" version=\"0.1\" byte_order=\""
+#ifdef VTK_WORDS_BIGENDIAN
+          << "BigEndian"
+#else
+          << "LittleEndian"
+#endif
+          << "\" header_type=\"UInt32\" compressor=\"vtkZLibDataCompressor\">\n"
+          << "  <PUnstructuredGrid GhostLevel=\"0\">\n"
+          << "    <PPointData Vectors=\"contact_force\">\n"
+          << "      <PDataArray type=\"Float64\" Name=\"contact_force\" NumberOfComponents=\"3\"/>\n"
+          << "      <PDataArray type=\"Int32\" Name=\"obstacle\"/>\n"
+          << "      <PDataArray type=\"Int32\" Name=\"contact_state\"/>\n"
+          << "    </PPointData>\n"
+          << "    <PPoints>\n"
+          << "      <PDataArray type=\"Float64\" Name=\"Points\" NumberOfComponents=\"3\"/>\n"
+          << "    </PPoints>\n";
+      for (int r = 0; r < size; ++r) out << "    <Piece Source=\"" << stem << "_" << r << ".vtu\"/>\n";
+      out << "  </PUnstructuredGrid>\n</VTKFile>\n";
+      if (!out) throw std::runtime_error("cannot write " + staged);
+    }
+    std::filesystem::rename(staged, file);
+    std::filesystem::remove(staging);
+    entries_.emplace_back(time, stem + ".pvtu");
+    write_pvd_file(directory_ + "/contacts.pvd", entries_);
+  }
+  return file;
+}
+
+template <int dim>
+void ContactSeries<dim>::resume(const std::vector<std::pair<double, std::string>>& particle_entries) {
+  if (rank_of(comm_) != 0) return;
+  entries_ = companion_entries(directory_, "contacts", ".pvtu", particle_entries);
+  write_pvd_file(directory_ + "/contacts.pvd", entries_);
+}
+
+template class ObstacleSeries<2>;
+template class ObstacleSeries<3>;
+template class ContactSeries<2>;
+template class ContactSeries<3>;
+
+// ------------------------------------------------------------ force table
+
+namespace {
+
+// Shortest text that reads back to the same double.
+std::string exact_text(double x) {
+  char buffer[64];
+  const auto r = std::to_chars(buffer, buffer + sizeof buffer, x);
+  return std::string(buffer, r.ptr);
+}
+
+// A data row of the table: `columns` + 1 numbers; false if torn or not numbers.
+bool parse_row(const std::string& line, std::size_t columns, double& time) {
+  std::size_t count = 0, start = 0;
+  while (true) {
+    const std::size_t end = std::min(line.find(',', start), line.size());
+    const std::string field = line.substr(start, end - start);
+    if (field.empty()) return false;
+    char* stop = nullptr;
+    const double value = std::strtod(field.c_str(), &stop);
+    if (stop != field.c_str() + field.size() || !std::isfinite(value)) return false;
+    if (count == 0) time = value;
+    ++count;
+    if (end == line.size()) break;
+    start = end + 1;
+  }
+  return count == columns + 1;
+}
+
+}  // namespace
+
+ObstacleForceTable::ObstacleForceTable(MPI_Comm comm, const std::string& path, const std::vector<std::string>& columns,
+                                       double resume_time, std::string* note)
+    : path_(path), columns_(columns.size()) {
+  if (rank_of(comm) != 0) return;
+  std::string header = "time";
+  for (const auto& c : columns) header += "," + c;
+  std::vector<std::string> kept;
+  if (resume_time >= 0.0 && std::filesystem::exists(path_)) {
+    // The rows up to the restart time: those after it belong to the part of
+    // the interrupted run that the restart repeats.
+    std::ifstream in(path_);
+    std::string line;
+    bool header_ok = std::getline(in, line) && line == header;
+    if (!header_ok) {
+      std::filesystem::rename(path_, path_ + ".old");
+      if (note)
+        *note = path_ + " has other columns than this case's obstacles; it was moved to " + path_ +
+                ".old and a new table started";
+    } else {
+      const double tolerance = 1e-10 * std::abs(resume_time);
+      double last = -std::numeric_limits<double>::infinity();
+      while (std::getline(in, line)) {
+        double t = 0.0;
+        if (!parse_row(line, columns_, t)) continue;  // a torn last line
+        if (t > resume_time + tolerance) break;
+        if (!(t > last)) continue;
+        kept.push_back(line);
+        last = t;
+      }
+    }
+  }
+  // Header and kept rows through a temporary name and a rename, then appended to.
+  const std::string tmp = path_ + ".tmp";
+  {
+    std::ofstream out(tmp);
+    out << header << "\n";
+    for (const auto& row : kept) out << row << "\n";
+    if (!out) throw std::runtime_error("cannot write " + tmp);
+  }
+  std::filesystem::rename(tmp, path_);
+  file_ = std::fopen(path_.c_str(), "a");
+  if (!file_) throw std::runtime_error("cannot append to " + path_);
+}
+
+ObstacleForceTable::~ObstacleForceTable() {
+  if (file_) std::fclose(file_);
+}
+
+void ObstacleForceTable::append(double time, const std::vector<double>& values) {
+  if (!file_) return;
+  std::string row = exact_text(time);
+  for (double v : values) row += "," + exact_text(v);
+  row += "\n";
+  if (std::fwrite(row.data(), 1, row.size(), file_) != row.size() || std::fflush(file_) != 0)
+    throw std::runtime_error("cannot append to " + path_);
+}
 
 }  // namespace talus

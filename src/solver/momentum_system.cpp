@@ -23,6 +23,10 @@ MomentumSystem<dim>::MomentumSystem(const Grid<dim>& grid, const Particles<dim>&
       contacts_(std::move(contacts)) {
   contact_impulse_.assign(contacts_.size(), Vector<dim>::Zero());
   contact_map_.resize(contacts_.size());
+  // The contact evaluation has collective parts (VecEqual, assembly): every
+  // rank takes it when any rank has a contact point.
+  int local_contacts = contacts_.empty() ? 0 : 1;
+  MPI_Allreduce(&local_contacts, &any_contacts_, 1, MPI_INT, MPI_MAX, grid.comm());
   const PetscInt np = particles.local_count();
   DM sw = particles.swarm();
   FieldView<PetscReal> s(sw, field::stress), v0(sw, field::initial_volume);
@@ -174,7 +178,7 @@ void MomentumSystem<dim>::residual(Vec v, Vec F) {
   }
   TALUS_PETSC(VecRestoreArrayRead(v, &x));
   TALUS_PETSC(VecRestoreArray(F, &f));
-  if (!contacts_.empty()) contact_rows(v, F);
+  if (any_contacts_) contact_rows(v, F);
 }
 
 template <int dim>
@@ -361,7 +365,7 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
     }
   TALUS_PETSC(MatAssemblyBegin(J, MAT_FINAL_ASSEMBLY));
   TALUS_PETSC(MatAssemblyEnd(J, MAT_FINAL_ASSEMBLY));
-  if (!contacts_.empty()) contact_jacobian(v, J);
+  if (any_contacts_) contact_jacobian(v, J);
 }
 
 template <int dim>
@@ -463,7 +467,7 @@ void MomentumSystem<dim>::finish(Vec v) {
   // normally there already).
   PetscBool same = PETSC_FALSE;
   if (contact_at_) TALUS_PETSC(VecEqual(v, contact_at_, &same));
-  if (!contacts_.empty() && !same) {
+  if (any_contacts_ && !same) {
     Vec F;
     TALUS_PETSC(VecDuplicate(v, &F));
     residual(v, F);

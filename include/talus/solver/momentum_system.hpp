@@ -102,6 +102,7 @@ class MomentumSystem {
   std::vector<NaturalMap<dim>> contact_map_;
   Vec contact_at_ = nullptr;  // the v of the last contact evaluation
   double contact_seconds_ = 0.0;
+  int any_contacts_ = 0;  // on any rank
 };
 
 }  // namespace talus

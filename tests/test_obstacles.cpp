@@ -1,0 +1,228 @@
+// Obstacle geometry (src/contact/obstacle.cpp): the signed gap and the
+// outward normal of half-planes, boxes and terrains against closed forms, in
+// 2D and 3D, fixed and moving; and a 3D terrain read from an ESRI ASCII grid
+// by the case loader (north row first) giving the same closed form.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <string>
+
+#include "talus/contact/obstacle.hpp"
+#include "talus/io/config.hpp"
+
+using namespace talus;
+
+namespace {
+
+constexpr double tol = 1e-12;
+
+template <int dim>
+void check_gap(const Obstacle<dim>& obstacle, const Vector<dim>& x, double t, double gap, const Vector<dim>& normal) {
+  const ObstacleGap<dim> g = obstacle.gap(x, t);
+  INFO("x = " << x.transpose() << ", t = " << t << ": gap " << g.gap << " (want " << gap << "), normal "
+              << g.normal.transpose() << " (want " << normal.transpose() << ")");
+  CHECK(std::abs(g.gap - gap) <= tol);
+  CHECK((g.normal - normal).norm() <= tol);
+  CHECK(std::abs(g.normal.norm() - 1.0) <= tol);
+}
+
+ObstacleConfig half_plane(std::vector<double> point, std::vector<double> normal) {
+  ObstacleConfig c;
+  c.name = "plane";
+  c.shape = ObstacleShape::half_plane;
+  c.point = std::move(point);
+  c.normal = std::move(normal);
+  return c;
+}
+
+ObstacleConfig box(std::vector<double> lower, std::vector<double> upper) {
+  ObstacleConfig c;
+  c.name = "box";
+  c.shape = ObstacleShape::box;
+  c.lower = std::move(lower);
+  c.upper = std::move(upper);
+  return c;
+}
+
+// A fresh directory under the system's temporary directory (tests may run in parallel).
+std::filesystem::path temp_dir() {
+  std::string pattern = (std::filesystem::temp_directory_path() / "talus_obstacles_XXXXXX").string();
+  REQUIRE(mkdtemp(pattern.data()) != nullptr);
+  return pattern;
+}
+
+}  // namespace
+
+TEST_CASE("half-plane at an arbitrary angle: gap (x - p).n, normal n", "[obstacle]") {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-3.0, 3.0);
+  SECTION("2D") {
+    const double angle = 0.37;  // normal not along an axis, given unnormalised
+    const Vector<2> n(std::cos(angle), std::sin(angle)), p(0.3, -1.2);
+    const Obstacle<2> plane(half_plane({p[0], p[1]}, {2.5 * n[0], 2.5 * n[1]}));
+    for (int k = 0; k < 20; ++k) {
+      const Vector<2> x(u(rng), u(rng));
+      check_gap<2>(plane, x, 0.0, (x - p).dot(n), n);
+    }
+  }
+  SECTION("3D") {
+    const Vector<3> n = Vector<3>(1.0, -2.0, 3.0).normalized(), p(0.5, 0.25, -0.75);
+    const Obstacle<3> plane(half_plane({p[0], p[1], p[2]}, {1.0, -2.0, 3.0}));
+    for (int k = 0; k < 20; ++k) {
+      const Vector<3> x(u(rng), u(rng), u(rng));
+      check_gap<3>(plane, x, 0.0, (x - p).dot(n), n);
+    }
+  }
+}
+
+TEST_CASE("box: distance to the closest face, edge or corner outside; minus the nearest face's inside", "[obstacle]") {
+  SECTION("2D, box [0, 1] x [0, 2]") {
+    const Obstacle<2> b(box({0.0, 0.0}, {1.0, 2.0}));
+    // Corner region: Euclidean distance to the corner (1, 2).
+    check_gap<2>(b, Vector<2>(1.3, 2.4), 0.0, 0.5, Vector<2>(0.6, 0.8));
+    check_gap<2>(b, Vector<2>(-0.3, -0.4), 0.0, 0.5, Vector<2>(-0.6, -0.8));
+    // Face regions: distance to the face, its normal.
+    check_gap<2>(b, Vector<2>(0.5, 2.25), 0.0, 0.25, Vector<2>(0.0, 1.0));
+    check_gap<2>(b, Vector<2>(-0.1, 1.0), 0.0, 0.1, Vector<2>(-1.0, 0.0));
+    check_gap<2>(b, Vector<2>(1.7, 0.3), 0.0, 0.7, Vector<2>(1.0, 0.0));
+    // Inside: minus the distance to the nearest face, that face's normal.
+    check_gap<2>(b, Vector<2>(0.2, 1.0), 0.0, -0.2, Vector<2>(-1.0, 0.0));
+    check_gap<2>(b, Vector<2>(0.5, 1.9), 0.0, -0.1, Vector<2>(0.0, 1.0));
+    check_gap<2>(b, Vector<2>(0.6, 0.05), 0.0, -0.05, Vector<2>(0.0, -1.0));
+    check_gap<2>(b, Vector<2>(0.9, 1.2), 0.0, -0.1, Vector<2>(1.0, 0.0));
+  }
+  SECTION("3D, unit cube") {
+    const Obstacle<3> b(box({0.0, 0.0, 0.0}, {1.0, 1.0, 1.0}));
+    // Corner region: beyond three faces.
+    check_gap<3>(b, Vector<3>(1.2, 1.3, 1.6), 0.0, 0.7, Vector<3>(0.2, 0.3, 0.6) / 0.7);
+    // Edge region: beyond two faces, the distance to the edge.
+    check_gap<3>(b, Vector<3>(1.3, 0.5, -0.4), 0.0, 0.5, Vector<3>(0.6, 0.0, -0.8));
+    // Face region.
+    check_gap<3>(b, Vector<3>(0.25, -0.5, 0.75), 0.0, 0.5, Vector<3>(0.0, -1.0, 0.0));
+    // Inside.
+    check_gap<3>(b, Vector<3>(0.5, 0.5, 0.9), 0.0, -0.1, Vector<3>(0.0, 0.0, 1.0));
+    check_gap<3>(b, Vector<3>(0.3, 0.04, 0.5), 0.0, -0.04, Vector<3>(0.0, -1.0, 0.0));
+  }
+}
+
+TEST_CASE("2D terrain polyline: segments, a convex kink, below, beyond the ends", "[obstacle]") {
+  // A ridge at (1, 1), a valley at (2, 0), then a gentle rise to (4, 0.5).
+  ObstacleConfig c;
+  c.name = "terrain";
+  c.shape = ObstacleShape::terrain;
+  c.polyline = {{0.0, 0.0}, {1.0, 1.0}, {2.0, 0.0}, {4.0, 0.5}};
+  const Obstacle<2> terrain(c);
+  const double r2 = std::sqrt(2.0), r17 = std::sqrt(4.25);  // |(1, 1)|, |(2, 0.5)|
+
+  // Above the segment y = x: the perpendicular distance, the segment's normal.
+  check_gap<2>(terrain, Vector<2>(0.3, 0.8), 0.0, 0.5 / r2, Vector<2>(-1.0, 1.0) / r2);
+  // Above the ridge, in the vertex's normal cone: the distance to the vertex,
+  // the normal along x - vertex.
+  const Vector<2> x(1.2, 1.6), ridge(1.0, 1.0);
+  check_gap<2>(terrain, x, 0.0, (x - ridge).norm(), (x - ridge).normalized());
+  // Below the terrain: negative, the upward normal of the segment above.
+  check_gap<2>(terrain, Vector<2>(3.0, 0.0), 0.0, -0.5 / r17, Vector<2>(-0.5, 2.0) / r17);
+  // Beyond the last vertex: the last segment extended.
+  check_gap<2>(terrain, Vector<2>(5.0, 1.0), 0.0, 0.5 / r17, Vector<2>(-0.5, 2.0) / r17);
+  // Before the first vertex: the first segment extended (the line y = x).
+  check_gap<2>(terrain, Vector<2>(-1.0, -0.5), 0.0, 0.5 / r2, Vector<2>(-1.0, 1.0) / r2);
+  check_gap<2>(terrain, Vector<2>(-1.0, -1.5), 0.0, -0.5 / r2, Vector<2>(-1.0, 1.0) / r2);
+}
+
+TEST_CASE("3D height map sampling a plane: gap (z - a x - b y - c) / sqrt(1 + a^2 + b^2)", "[obstacle]") {
+  const double a = 0.3, b = -0.2, c0 = 1.0;
+  ObstacleConfig c;
+  c.name = "terrain";
+  c.shape = ObstacleShape::terrain;
+  c.map_origin = {-1.0, -2.0};
+  c.map_spacing = 0.5;
+  c.map_nx = 7;
+  c.map_ny = 5;
+  for (int j = 0; j < c.map_ny; ++j)
+    for (int i = 0; i < c.map_nx; ++i)
+      c.heights.push_back(a * (c.map_origin[0] + i * c.map_spacing) + b * (c.map_origin[1] + j * c.map_spacing) + c0);
+  const Obstacle<3> terrain(c);
+  const double norm = std::sqrt(1.0 + a * a + b * b);
+  const Vector<3> n = Vector<3>(-a, -b, 1.0) / norm;
+  std::mt19937 rng(11);
+  // Inside the map (x in [-1, 2], y in [-2, 0]) and beyond it (border cells extended).
+  std::uniform_real_distribution<double> ux(-2.0, 3.0), uy(-3.0, 1.0), uz(-2.0, 3.0);
+  for (int k = 0; k < 50; ++k) {
+    const Vector<3> x(ux(rng), uy(rng), uz(rng));
+    check_gap<3>(terrain, x, 0.0, (x[2] - a * x[0] - b * x[1] - c0) / norm, n);
+  }
+}
+
+TEST_CASE("a moving obstacle: the gap at time t is the gap at x - velocity t", "[obstacle]") {
+  SECTION("half-plane") {
+    ObstacleConfig c = half_plane({0.0, 0.0}, {0.6, 0.8});
+    c.velocity = {1.5, -0.5};
+    const Obstacle<2> plane(c);
+    const Vector<2> n(0.6, 0.8), v(1.5, -0.5), x(0.7, 0.4);
+    CHECK(plane.velocity() == v);
+    for (double t : {0.0, 0.1, 0.75, 2.0}) check_gap<2>(plane, x, t, x.dot(n) - t * v.dot(n), n);
+  }
+  SECTION("box (3D)") {
+    ObstacleConfig c = box({0.0, 0.0, 0.0}, {1.0, 1.0, 1.0});
+    c.velocity = {0.0, 0.0, -2.0};  // a falling block
+    const Obstacle<3> b(c);
+    // Above the top face at z = 1 - 2 t.
+    for (double t : {0.0, 0.1, 0.25})
+      check_gap<3>(b, Vector<3>(0.5, 0.5, 1.5), t, 0.5 + 2.0 * t, Vector<3>(0.0, 0.0, 1.0));
+    // At t = 0.5 the top face is at z = 0 and the corner region lies above-right.
+    check_gap<3>(b, Vector<3>(1.3, 0.5, 0.4), 0.5, 0.5, Vector<3>(0.6, 0.0, 0.8));
+  }
+  SECTION("terrain (2D)") {
+    ObstacleConfig c;
+    c.shape = ObstacleShape::terrain;
+    c.polyline = {{0.0, 0.0}, {10.0, 0.0}};
+    c.velocity = {3.0, 0.25};  // a rising conveyor belt
+    const Obstacle<2> floor(c);
+    for (double t : {0.0, 0.4, 1.0})
+      check_gap<2>(floor, Vector<2>(2.0, 0.5), t, 0.5 - 0.25 * t, Vector<2>(0.0, 1.0));
+  }
+}
+
+TEST_CASE("a 3D terrain from an ESRI ASCII grid (north row first) gives the plane it samples", "[obstacle][config]") {
+  // z = a x + b y + c on 5 x 4 samples, spacing 0.5, the south-west sample
+  // centre at (0.25, 0.25): the header gives the corner (0, 0).
+  const double a = 0.2, b = 0.1, c0 = 0.05, s = 0.5;
+  const int nx = 5, ny = 4;
+  const std::filesystem::path dir = temp_dir();
+  {
+    std::ofstream asc(dir / "plane.asc");
+    asc << "ncols " << nx << "\nnrows " << ny << "\nxllcorner 0.0\nyllcorner 0.0\ncellsize " << s
+        << "\nNODATA_value -9999\n";
+    asc.precision(17);
+    for (int row = 0; row < ny; ++row) {  // north (largest y) first
+      const double y = 0.25 + (ny - 1 - row) * s;
+      for (int i = 0; i < nx; ++i) asc << (i ? " " : "") << a * (0.25 + i * s) + b * y + c0;
+      asc << "\n";
+    }
+  }
+  const std::string yaml =
+      "grid: {lower: [0, 0, 0], upper: [2.5, 2, 1.5], cell_size: 0.5}\n"
+      "time: {end: 1, step: 0.1}\n"
+      "materials: [{name: m, model: linear_elastic, density: 1000, youngs_modulus: 1e6, poisson_ratio: 0.2}]\n"
+      "bodies: [{name: b, material: m, box: {lower: [1, 1, 0.5], upper: [1.5, 1.5, 1]}}]\n"
+      "obstacles:\n"
+      "  - {name: ground, type: terrain, file: plane.asc, friction: 0.6}\n";
+  const CaseConfig config = parse_case(yaml, (dir / "case.yaml").string());
+  REQUIRE(config.obstacles.size() == 1);
+  const ObstacleConfig& o = config.obstacles[0];
+  CHECK(o.map_nx == nx);
+  CHECK(o.map_ny == ny);
+  const Obstacle<3> terrain(o);
+  const double norm = std::sqrt(1.0 + a * a + b * b);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> ux(0.0, 2.5), uy(0.0, 2.0), uz(-0.5, 1.5);
+  for (int k = 0; k < 30; ++k) {
+    const Vector<3> x(ux(rng), uy(rng), uz(rng));
+    check_gap<3>(terrain, x, 0.0, (x[2] - a * x[0] - b * x[1] - c0) / norm, Vector<3>(-a, -b, 1.0) / norm);
+  }
+  std::filesystem::remove_all(dir);
+}
