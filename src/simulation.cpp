@@ -11,6 +11,7 @@
 #include <ostream>
 #include <sstream>
 
+#include "talus/io/yaml_section.hpp"
 #include "talus/particles/seeding.hpp"
 
 namespace talus {
@@ -128,6 +129,7 @@ StepReport Simulation<dim>::advance(double h) {
   report.contact_seconds += system.contact_seconds();
   if (!report.newton.converged) return report;
   record_contact_forces(system, h);
+  if (grid_output()) record_grid_points(fields, system.end_velocity(), &system, h);
 
   // 7. G2P: velocities, affine velocities, positions, deformation gradients.
   const auto t2 = std::chrono::steady_clock::now();
@@ -178,6 +180,56 @@ void Simulation<dim>::record_contact_forces(const MomentumSystem<dim>& system, d
 }
 
 template <int dim>
+void Simulation<dim>::record_grid_points(const GridFields<dim>& fields, const std::vector<double>& velocity,
+                                         const MomentumSystem<dim>* system, double h) {
+  PointCloud& cloud = grid_points_;
+  cloud = PointCloud{};
+  cloud.arrays = {{"mass", 1, false, {}},
+                  {"velocity", 3, false, {}},
+                  {"contact_force", 3, false, {}},
+                  {"active", 1, true, {}}};
+  cloud.vectors = "velocity";
+  auto& mass = cloud.arrays[0].values;
+  auto& v = cloud.arrays[1].values;
+  auto& force = cloud.arrays[2].values;
+  auto& active = cloud.arrays[3].values;
+  const int n = grid_->ghosted_count();
+  std::vector<int> slot(static_cast<std::size_t>(n), -1);  // ghosted index -> point of the cloud
+  for (int i = 0; i < n; ++i) {
+    const auto ijk = grid_->global_index(i);
+    if (!(fields.mass[i] > 0.0) || !grid_->is_owned(ijk)) continue;
+    slot[i] = static_cast<int>(cloud.points.size());
+    const Vector<dim> x = grid_->point_position(ijk);
+    std::array<double, 3> p{0.0, 0.0, 0.0};
+    for (int a = 0; a < dim; ++a) p[a] = x[a];
+    cloud.points.push_back(p);
+    mass.push_back(fields.mass[i]);
+    for (int a = 0; a < 3; ++a) v.push_back(a < dim ? velocity[dim * i + a] : 0.0);
+    force.insert(force.end(), 3, 0.0);
+    // The unknowns of the step: the points above the active-mass threshold (ActiveSet::build).
+    active.push_back(fields.mass[i] > mass_threshold_ ? 1.0 : 0.0);
+  }
+  if (!system) return;
+  const auto& contacts = system->contacts();
+  for (std::size_t c = 0; c < contacts.size(); ++c) {
+    const int k = slot[contacts[c].point];
+    if (k < 0) continue;  // a contact point always carries mass: not reached
+    // As in contacts.pvd: the force on the obstacle, -r_i / h.
+    const Vector<dim> f = system->contact_impulses()[c] / h;
+    for (int a = 0; a < dim; ++a) force[3 * static_cast<std::size_t>(k) + a] = 0.0 - f[a];
+  }
+}
+
+template <int dim>
+void Simulation<dim>::record_initial_grid_points() {
+  std::vector<Stencil<dim>> stencils;
+  compute_stencils(*grid_, *particles_, stencils);
+  GridFields<dim> fields;
+  particles_to_grid(*grid_, *particles_, stencils, config_.transfer.scheme, fields);
+  record_grid_points(fields, fields.velocity, nullptr, 0.0);
+}
+
+template <int dim>
 void Simulation<dim>::check_finite() const {
   const PetscInt n = particles_->local_count();
   int bad = 0;
@@ -193,7 +245,7 @@ void Simulation<dim>::check_finite() const {
   MPI_Allreduce(&bad, &any, 1, MPI_INT, MPI_MAX, comm_);
   if (any)
     throw SimulationError("a particle position, velocity or stress is not finite after the step ending at t = " +
-                          std::to_string(time_) + "; the run stops (the last output is the last good state)");
+                          number_text(time_) + "; the run stops (the last output is the last good state)");
 }
 
 template <int dim>
@@ -223,7 +275,7 @@ void Simulation<dim>::keep_particles_inside() {
   MPI_Allreduce(&escaped, &total, 1, MPI_LONG, MPI_SUM, comm_);
   if (total > 0)
     throw SimulationError(std::to_string(total) + " particles left the grid through a free face at t = " +
-                          std::to_string(time_) + "; enlarge the grid box or make that face slip or fixed");
+                          number_text(time_) + "; enlarge the grid box or make that face slip or fixed");
 }
 
 template <int dim>
@@ -286,6 +338,9 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
   std::unique_ptr<ObstacleSeries<dim>> obstacle_vtk;
   std::unique_ptr<ContactSeries<dim>> contact_vtk;
   std::unique_ptr<ObstacleForceTable> forces;
+  // With output.grid: the grid points of the last step (grid.pvd), same numbers.
+  std::unique_ptr<PointCloudSeries> grid_vtk;
+  if (vtk && config_.output.grid) grid_vtk = std::make_unique<PointCloudSeries>(comm_, config_.output.directory, "grid");
   const bool obstacle_output = vtk && !obstacles_.empty();
   if (obstacle_output) {
     obstacle_vtk =
@@ -297,6 +352,7 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
     vtk->write(*particles_, time_);
     if (obstacle_vtk) obstacle_vtk->write(obstacles_, time_, index);
     if (contact_vtk) contact_vtk->write(contact_samples(), time_, index);
+    if (grid_vtk) grid_vtk->write(grid_points_, time_, index);
     ++summary.outputs;
   };
   const std::string forces_path = config_.output.directory + "/obstacle_forces.csv";
@@ -308,6 +364,7 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
     if (vtk) vtk->resume(resume_->outputs);
     if (obstacle_vtk) obstacle_vtk->resume(resume_->outputs);
     if (contact_vtk) contact_vtk->resume(resume_->outputs);
+    if (grid_vtk) grid_vtk->resume(resume_->outputs);
     // The table keeps its rows up to the checkpoint's time and continues.
     std::string note;
     if (obstacle_output)
@@ -315,6 +372,7 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
     if (progress && rank == 0 && !note.empty()) *progress << "  " << note << "\n";
   } else {
     if (obstacle_output) forces = std::make_unique<ObstacleForceTable>(comm_, forces_path, force_columns());
+    if (grid_vtk) record_initial_grid_points();  // t = 0: the P2G state
     if (vtk) write_output();
   }
   const auto checkpoint = [&] {
@@ -353,8 +411,8 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
         *progress << "  Newton failed (" << r.newton.reason << ") at t = " << time_ << " with h = " << h_try
                   << "; retrying with h = " << h << "\n";
       if (h < tc.min_step_ratio * tc.step)
-        throw SimulationError("Newton did not converge at t = " + std::to_string(time_) +
-                              " even with h = " + std::to_string(h_try) + " (" + r.newton.reason + ")");
+        throw SimulationError("Newton did not converge at t = " + number_text(time_) +
+                              " even with h = " + number_text(h_try) + " (" + r.newton.reason + ")");
       continue;
     }
     ++summary.steps;

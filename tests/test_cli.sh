@@ -420,3 +420,75 @@ for j in range(2):
             assert normal(x)[2] > 0                                        # facing up, out of the ground
 print("cli ok: 3D obstacle geometry,", len(cells), "cells")
 PY
+
+# Grid output (output.grid, docs/output.md#grid-points): the obstacle case
+# with the block sliding at 0.5 m/s, serial, restarted, and on two ranks.
+# At every output the grid points carry the particles' mass (P2G partition of
+# unity) and momentum (t = 0: APIC P2G; later: APIC G2P v_p = sum_i N_ip v_i,
+# so sum_p m_p v_p = sum_i m_i v_i^{n+1}), both to round-off; the grid's
+# contact forces are those of contacts.pvd. Cases without output.grid (all
+# above) write no grid file.
+sed -e "s#output: {directory: $work/obs, interval: 0.05}#output: {directory: $work/grid, interval: 0.05, grid: true}#" \
+  -e 's#upper: \[0.7, 0.3\]}}#upper: [0.7, 0.3]}, velocity: [0.5, 0.0]}#' obs.yaml > grid.yaml
+grep -q 'grid: true' grid.yaml && grep -q 'velocity: \[0.5, 0.0\]' grid.yaml || { echo "FAIL: grid.yaml"; exit 1; }
+"$talus" run grid.yaml > grid.log 2>&1 || { echo "FAIL: grid output case"; cat grid.log; exit 1; }
+cp -r grid grid_full
+"$talus" run grid.yaml --restart grid/checkpoint_000007.h5 > grid_restart.log 2>&1 ||
+  { echo "FAIL: grid output restart"; cat grid_restart.log; exit 1; }
+for f in grid.pvd grid_000004.pvtu grid_000004_0.vtu particles.pvd; do
+  cmp -s "grid/$f" "grid_full/$f" || { echo "FAIL: $f after the restart differs from the run straight through"; exit 1; }
+done
+sed -e "s#directory: $work/grid#directory: $work/grid2#" grid.yaml > grid2.yaml
+mpiexec -n 2 "$talus" run grid2.yaml > grid2.log 2>&1 || { echo "FAIL: grid output on 2 ranks"; cat grid2.log; exit 1; }
+for d in out out2 obs obs2 obs3; do
+  if ls "$work/$d" | grep -q '^grid'; then echo "FAIL: $d has grid files without output.grid"; exit 1; fi
+done
+/usr/bin/python3 - "$work" <<'PY'
+import glob, os, sys, xml.etree.ElementTree as ET
+import numpy as np
+import vtk
+from vtk.util.numpy_support import vtk_to_numpy
+work = sys.argv[1]
+def series(path):
+    return [(float(e.get("timestep")), e.get("file")) for e in ET.parse(path).getroot().iter("DataSet")]
+def read(path):
+    r = vtk.vtkXMLPUnstructuredGridReader()
+    r.SetFileName(path)
+    r.Update()
+    return r.GetOutput()
+worst_mass = worst_momentum = 0.0
+for run, ranks in (("grid", 1), ("grid2", 2)):
+    out = os.path.join(work, run)
+    particles, grid, contacts = (series(os.path.join(out, n + ".pvd")) for n in ("particles", "grid", "contacts"))
+    assert len(grid) == 5 and [t for t, _ in grid] == [t for t, _ in particles], (grid, particles)
+    assert [f for _, f in grid] == [f.replace("particles", "grid") for _, f in particles], grid
+    for k, ((t, pf), (_, gf), (_, cf)) in enumerate(zip(particles, grid, contacts)):
+        with open(os.path.join(out, gf)) as fh:
+            pieces = [e.get("Source") for e in ET.fromstring(fh.read()).iter("Piece")]
+        assert pieces == [gf.replace(".pvtu", f"_{r}.vtu") for r in range(ranks)], pieces
+        p, g, c = read(os.path.join(out, pf)), read(os.path.join(out, gf)), read(os.path.join(out, cf))
+        pd, gd = p.GetPointData(), g.GetPointData()
+        mp, vp = vtk_to_numpy(pd.GetArray("mass")), vtk_to_numpy(pd.GetArray("velocity"))
+        mg, vg = vtk_to_numpy(gd.GetArray("mass")), vtk_to_numpy(gd.GetArray("velocity"))
+        fg, active = vtk_to_numpy(gd.GetArray("contact_force")), vtk_to_numpy(gd.GetArray("active"))
+        X = vtk_to_numpy(g.GetPoints().GetData())
+        assert vg.shape == (len(mg), 3) and fg.shape == (len(mg), 3) and np.all(vg[:, 2] == 0) and np.all(X[:, 2] == 0)
+        assert np.all(mg > 0) and set(np.unique(active)) <= {0, 1} and active.sum() > 0
+        assert len(np.unique(X[:, :2], axis=0)) == len(X), "a grid point written twice"
+        mass_error = abs(mg.sum() - mp.sum()) / mp.sum()
+        scale = (mp[:, None] * np.abs(vp)).sum()
+        momentum_error = np.abs((mg[:, None] * vg).sum(axis=0) - (mp[:, None] * vp).sum(axis=0)).max() / scale
+        assert mass_error <= 1e-12, (run, t, mass_error)
+        assert momentum_error <= 1e-12, (run, t, momentum_error, (mg[:, None] * vg).sum(axis=0), (mp[:, None] * vp).sum(axis=0))
+        worst_mass, worst_momentum = max(worst_mass, mass_error), max(worst_momentum, momentum_error)
+        fc = vtk_to_numpy(c.GetPointData().GetArray("contact_force"))
+        touching = np.any(fg != 0, axis=1)
+        assert touching.sum() <= len(fc) and np.abs(fg.sum(axis=0) - fc.sum(axis=0)).max() <= 1e-12 * max(1.0, np.abs(fc).sum())
+        if k == 0:
+            assert not touching.any()                      # t = 0: the P2G state, no contact yet
+        else:
+            assert touching.sum() > 0 and np.all(active[touching] == 1), (run, t)
+    print(f"cli ok: grid output on {ranks} rank(s): {len(grid)} outputs, {len(mg)} grid points at t = {t}, "
+          f"momentum x {(mg * vg[:, 0]).sum():.6g} N s/m")
+print(f"cli ok: grid mass = particle mass to {worst_mass:.1e}, grid momentum = particle momentum to {worst_momentum:.1e} (relative)")
+PY

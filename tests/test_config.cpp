@@ -7,6 +7,7 @@
 #include <fstream>
 
 #include "talus/io/config.hpp"
+#include "talus/io/yaml_section.hpp"
 #include "talus/simulation.hpp"
 #include "test_support.hpp"
 
@@ -136,6 +137,48 @@ TEST_CASE("malformed cases name the key, the value and the line", "[config]") {
     const std::string message = error_of(c.yaml);
     INFO("message: " << message);
     CHECK(message.find(c.expected) != std::string::npos);
+  }
+}
+
+TEST_CASE("error messages print a value as the file writes it, a computed number in shortest form", "[config]") {
+  // Not std::to_string's six decimals ("0.500000", "-0.000000").
+  CHECK(number_text(0.5) == "0.5");
+  CHECK(number_text(1e-12) == "1e-12");
+  CHECK(number_text(2.0) == "2");
+  CHECK(number_text(0.1 + 0.2) == "0.30000000000000004");
+  const std::string geostatic = "box: {lower: [0.5, 0], upper: [1.0, 0.5]}\n    initial_stress: geostatic";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {replace(valid, "poisson_ratio: 0.3", "poisson_ratio: 0.5"), "materials[0].poisson_ratio = 0.5: must be in [0, 0.5)"},
+      {replace(valid, "density: 2000", "density: -2e3"), "materials[0].density = -2e3: must be > 0"},
+      {replace(valid, "youngs_modulus: 1.0e7", "youngs_modulus: 0"), "materials[0].youngs_modulus = 0: must be > 0"},
+      {replace(valid, "step: 0.01", "step: -1e-12"), "time.step = -1e-12: must be > 0"},
+      {replace(valid, "time: {end: 1.0, step: 0.01}", "time: {end: 1.0, step: 0.01, theta: 0.3}"),
+       "time.theta = 0.3: must be in [0.5, 1]"},
+      {replace(valid, "time: {end: 1.0, step: 0.01}", "time: {end: 1.0, step: 0.01, min_step_ratio: -1e-12}"),
+       "time.min_step_ratio = -1e-12: must be in (0, 1]"},
+      {valid + "output: {interval: -0.25}\n", "output.interval = -0.25: must be >= 0"},
+      {valid + "checkpoint: {interval: -3}\n", "checkpoint.interval = -3: must be >= 0"},
+      {valid + "transfer: {flip_blend: 1.0000001}\n", "transfer.flip_blend = 1.0000001: must be in [0, 1]"},
+      {valid + "solver: {active_mass_ratio: 1}\n", "solver.active_mass_ratio = 1: must be in [0, 1)"},
+      {valid + "solver: {direct_solver_limit: -1}\n", "solver.direct_solver_limit = -1: must be >= 0"},
+      {valid + "contact: {gap_prediction: 1.5}\n", "contact.gap_prediction = 1.5: must be in [0, 1]"},
+      {replace(valid, "box: {lower: [0.5, 0], upper: [1.0, 0.5]}", geostatic + "\n    k0: 5.5"),
+       "bodies[0].k0 = 5.5: must be in (0, 5]"},
+      {replace(valid, "material: soil", "material: soil\n    particles_per_cell: 9"),
+       "bodies[0].particles_per_cell = 9: must be in 1..8"},
+      {replace(valid, "model: linear_elastic", "model: drucker_prager\n    friction_angle: 30\n    cohesion: -0.5"),
+       "materials[0].cohesion = -0.5: must be >= 0"},
+      {replace(valid, "model: linear_elastic", "model: drucker_prager\n    friction_angle: 30\n    tension_cutoff: -2.5e-1"),
+       "materials[0].tension_cutoff = -2.5e-1: must be >= 0"},
+      // A computed number: cell_size / particles_per_cell.
+      {replace(replace(valid, "upper: [1.0, 0.5]", "upper: [1.0, 0.01]"), "material: soil",
+               "material: soil\n    particles_per_cell: 3"),
+       "particle spacing cell_size / particles_per_cell = 0.03333333333333333 m)"},
+  };
+  for (const auto& [yaml, expected] : cases) {
+    const std::string message = error_of(yaml);
+    INFO("message: " << message);
+    CHECK(message.find(expected) != std::string::npos);
   }
 }
 

@@ -72,11 +72,22 @@ class Simulation {
     ConeRegion region;
   };
   const std::vector<NodalContact>& nodal_contacts() const { return nodal_contacts_; }
+  // With output.grid (docs/output.md#grid-points): the grid points carrying
+  // mass that this rank owns, of the last accepted step (before the first
+  // step of a run: the P2G state at t = 0), as written to grid.pvd. Empty
+  // without output.grid.
+  const PointCloud& grid_points() const { return grid_points_; }
 
  private:
   void check_finite() const;
   void record_contact_forces(const MomentumSystem<dim>& system, double h);
   void keep_particles_inside();
+  bool grid_output() const { return config_.output.enabled && config_.output.grid; }
+  // Stores grid_points_: mass, the velocity `velocity` (ghosted, dim per
+  // point) and, with `system`, the contact forces -r_i / h of its contact points.
+  void record_grid_points(const GridFields<dim>& fields, const std::vector<double>& velocity,
+                          const MomentumSystem<dim>* system, double h);
+  void record_initial_grid_points();  // P2G at the current particle state, v^n
   // Output of the obstacles (docs/output.md#obstacles-and-contacts): the
   // contact points of the last step as written, the columns of
   // obstacle_forces.csv and its row (the force on each obstacle, -obstacle_forces()).
@@ -93,6 +104,7 @@ class Simulation {
   std::vector<Obstacle<dim>> obstacles_;
   std::vector<Vector<dim>> obstacle_force_;
   std::vector<NodalContact> nodal_contacts_;
+  PointCloud grid_points_;
   Vector<dim> gravity_;
   double mass_threshold_ = 0;
   double time_ = 0;

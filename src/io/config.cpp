@@ -90,6 +90,25 @@ void YamlSection::fail_value(const std::string& key, const std::string& value, c
                    message);
 }
 
+void YamlSection::fail_value(const std::string& key, const std::string& message) const {
+  const std::string value = written(key);
+  if (value.empty()) fail(key, message);
+  fail_value(key, value, message);
+}
+
+std::string YamlSection::written(const std::string& key) const {
+  if (!node_.IsMap()) return "";
+  const YAML::Node c = node_[key];
+  if (!c.IsDefined() || c.IsNull()) return "";
+  return scalar_text(c);
+}
+
+std::string number_text(double value) {
+  char buffer[64];
+  const auto r = std::to_chars(buffer, buffer + sizeof buffer, value);
+  return std::string(buffer, r.ptr);
+}
+
 YAML::Node YamlSection::child(const std::string& key, const char* expected) {
   read_.insert(key);
   if (!node_.IsMap()) fail(key, "the enclosing section must be a map");
@@ -229,7 +248,7 @@ std::vector<std::pair<std::string, std::string>> YamlSection::free_map(const std
 }
 
 double YamlSection::positive(const std::string& key, double value) const {
-  if (!(value > 0)) fail_value(key, scalar_text(YAML::Node(value)), "must be > 0");
+  if (!(value > 0)) fail_value(key, "must be > 0");
   return value;
 }
 
@@ -258,13 +277,6 @@ const std::vector<std::string> face_conditions = {"free", "slip", "fixed", "fric
 const char* const face_names[6] = {"x_min", "x_max", "y_min", "y_max", "z_min", "z_max"};
 const char* const axis_names[3] = {"x", "y", "z"};
 
-// A number as a message prints it (shortest form, not std::to_string's six decimals).
-std::string number_text(double v) {
-  std::ostringstream os;
-  os << v;
-  return os.str();
-}
-
 std::string list_text(const std::vector<double>& v) {
   std::string s = "[";
   for (std::size_t i = 0; i < v.size(); ++i) s += (i ? ", " : "") + number_text(v[i]);
@@ -285,10 +297,10 @@ std::string required_choice(YamlSection& s, const std::string& key, const std::v
 // Coulomb's mu (required, >= 0) and Newton's restitution e (default 0, in [0, 1]).
 void parse_friction(YamlSection& s, double& friction, double& restitution) {
   friction = s.real("friction");
-  if (!(friction >= 0)) s.fail_value("friction", number_text(friction), "must be >= 0 (the Coulomb coefficient mu)");
+  if (!(friction >= 0)) s.fail_value("friction", "must be >= 0 (the Coulomb coefficient mu)");
   restitution = s.real("restitution", 0.0);
   if (!(restitution >= 0 && restitution <= 1))
-    s.fail_value("restitution", number_text(restitution), "must be in [0, 1]");
+    s.fail_value("restitution", "must be in [0, 1]");
 }
 
 FaceCondition face_condition(const std::string& v) {
@@ -697,18 +709,19 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
     c.time.step = t.positive("step", t.real("step"));
     c.time.theta = t.real("theta", 1.0);
     if (!(c.time.theta >= 0.5 && c.time.theta <= 1.0))
-      t.fail_value("theta", std::to_string(c.time.theta), "must be in [0.5, 1]");
+      t.fail_value("theta", "must be in [0.5, 1]");
     c.time.min_step_ratio = t.real("min_step_ratio", 1e-3);
     if (!(c.time.min_step_ratio > 0 && c.time.min_step_ratio <= 1))
-      t.fail_value("min_step_ratio", std::to_string(c.time.min_step_ratio), "must be in (0, 1]");
+      t.fail_value("min_step_ratio", "must be in (0, 1]");
     t.finish();
   }
   if (root.has("output")) {
     YamlSection o = root.section("output");
     c.output.directory = o.text("directory", "output");
     c.output.interval = o.real("interval", 0.0);
-    if (c.output.interval < 0) o.fail_value("interval", std::to_string(c.output.interval), "must be >= 0");
+    if (c.output.interval < 0) o.fail_value("interval", "must be >= 0");
     c.output.enabled = o.boolean("enabled", true);
+    c.output.grid = o.boolean("grid", false);
     o.finish();
   }
   c.checkpoint.directory = c.output.directory;
@@ -718,7 +731,7 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
     c.checkpoint.enabled = k.boolean("enabled", c.output.enabled);
     c.checkpoint.interval = k.integer("interval", 0);
     if (c.checkpoint.interval < 0)
-      k.fail_value("interval", std::to_string(c.checkpoint.interval), "must be >= 0 (steps; 0: only at the end)");
+      k.fail_value("interval", "must be >= 0 (steps; 0: only at the end)");
     c.checkpoint.directory = k.text("directory", c.output.directory);
     k.finish();
   }
@@ -798,20 +811,18 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
     }
     bc.particles_per_cell = b.integer("particles_per_cell", 2);
     if (bc.particles_per_cell < 1 || bc.particles_per_cell > 8)
-      b.fail_value("particles_per_cell", std::to_string(bc.particles_per_cell), "must be in 1..8 (per axis)");
+      b.fail_value("particles_per_cell", "must be in 1..8 (per axis)");
     if (!body_has_particle(c, bc)) {
-      std::ostringstream spacing;
-      spacing << c.grid.cell_size / bc.particles_per_cell;
       b.fail(bc.polygon.empty() ? "box" : "polygon",
              "holds no particle (too thin for the particle spacing cell_size / particles_per_cell = " +
-                 spacing.str() + " m)");
+                 number_text(c.grid.cell_size / bc.particles_per_cell) + " m)");
     }
     bc.velocity = b.has("velocity") ? b.reals("velocity", c.dim) : std::vector<double>(c.dim, 0.0);
     bc.geostatic = b.choice("initial_stress", {"none", "geostatic"}, "none") == "geostatic";
     if (b.has("k0")) {
       if (!bc.geostatic) b.fail("k0", "is only used with initial_stress: geostatic");
       bc.k0 = b.real("k0");
-      if (!(bc.k0 > 0.0 && bc.k0 <= 5.0)) b.fail_value("k0", std::to_string(bc.k0), "must be in (0, 5]");
+      if (!(bc.k0 > 0.0 && bc.k0 <= 5.0)) b.fail_value("k0", "must be in (0, 5]");
     }
     if (bc.geostatic)
       for (int a = 0; a + 1 < c.dim; ++a)
@@ -846,7 +857,7 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
     YamlSection k = root.section("contact");
     c.contact.gap_prediction = k.real("gap_prediction", 0.5);
     if (!(c.contact.gap_prediction >= 0 && c.contact.gap_prediction <= 1))
-      k.fail_value("gap_prediction", number_text(c.contact.gap_prediction), "must be in [0, 1]");
+      k.fail_value("gap_prediction", "must be in [0, 1]");
     k.finish();
   }
 
@@ -856,7 +867,7 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
                                                                                   : TransferScheme::flip;
     c.transfer.flip_blend = t.real("flip_blend", 0.99);
     if (!(c.transfer.flip_blend >= 0 && c.transfer.flip_blend <= 1))
-      t.fail_value("flip_blend", std::to_string(c.transfer.flip_blend), "must be in [0, 1]");
+      t.fail_value("flip_blend", "must be in [0, 1]");
     t.finish();
   }
 
@@ -864,10 +875,10 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
     YamlSection s = root.section("solver");
     c.solver.active_mass_ratio = s.real("active_mass_ratio", 1e-12);
     if (!(c.solver.active_mass_ratio >= 0 && c.solver.active_mass_ratio < 1))
-      s.fail_value("active_mass_ratio", std::to_string(c.solver.active_mass_ratio), "must be in [0, 1)");
+      s.fail_value("active_mass_ratio", "must be in [0, 1)");
     c.solver.direct_solver_limit = s.integer("direct_solver_limit", 5000);
     if (c.solver.direct_solver_limit < 0)
-      s.fail_value("direct_solver_limit", std::to_string(c.solver.direct_solver_limit), "must be >= 0");
+      s.fail_value("direct_solver_limit", "must be >= 0");
     for (auto& [k, v] : s.free_map("petsc_options")) {
       std::string key = k;
       if (!key.empty() && key[0] == '-') key.erase(0, 1);

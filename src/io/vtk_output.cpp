@@ -561,50 +561,48 @@ void ObstacleSeries<dim>::resume(const std::vector<std::pair<double, std::string
   write_pvd_file(directory_ + "/obstacles.pvd", entries_);
 }
 
-template <int dim>
-ContactSeries<dim>::ContactSeries(MPI_Comm comm, std::string directory)
-    : comm_(comm), directory_(std::move(directory)) {
+PointCloudSeries::PointCloudSeries(MPI_Comm comm, std::string directory, std::string name)
+    : comm_(comm), directory_(std::move(directory)), name_(std::move(name)) {
   if (rank_of(comm_) == 0) std::filesystem::create_directories(directory_);
   MPI_Barrier(comm_);
 }
 
-template <int dim>
-std::string ContactSeries<dim>::write(const std::vector<ContactSample<dim>>& contacts, double time,
-                                      std::size_t index) {
-  const vtkIdType n = static_cast<vtkIdType>(contacts.size());
+std::string PointCloudSeries::write(const PointCloud& cloud, double time, std::size_t index) {
+  const vtkIdType n = static_cast<vtkIdType>(cloud.points.size());
   vtkNew<vtkPoints> points;
   points->SetDataTypeToDouble();
   points->SetNumberOfPoints(n);
   vtkNew<vtkCellArray> cells;
-  vtkNew<vtkDoubleArray> force;
-  force->SetName("contact_force");
-  force->SetNumberOfComponents(3);
-  force->SetNumberOfTuples(n);
-  vtkNew<vtkIntArray> obstacle, state;
-  obstacle->SetName("obstacle");
-  obstacle->SetNumberOfTuples(n);
-  state->SetName("contact_state");
-  state->SetNumberOfTuples(n);
   for (vtkIdType p = 0; p < n; ++p) {
-    const ContactSample<dim>& c = contacts[static_cast<std::size_t>(p)];
-    points->SetPoint(p, to_point<dim>(c.position).data());
-    force->SetTuple(p, to_point<dim>(c.force).data());
-    obstacle->SetValue(p, c.obstacle);
-    state->SetValue(p, c.state);
+    points->SetPoint(p, cloud.points[static_cast<std::size_t>(p)].data());
     cells->InsertNextCell(1, &p);
   }
   vtkNew<vtkUnstructuredGrid> ug;
   ug->SetPoints(points);
   ug->SetCells(VTK_VERTEX, cells);
-  ug->GetPointData()->AddArray(force);
-  ug->GetPointData()->AddArray(obstacle);
-  ug->GetPointData()->AddArray(state);
-  ug->GetPointData()->SetActiveVectors("contact_force");
+  for (const PointCloud::Array& a : cloud.arrays) {
+    if (a.values.size() != static_cast<std::size_t>(n) * a.components)
+      throw std::logic_error("point array " + a.name + " has " + std::to_string(a.values.size()) + " values for " +
+                             std::to_string(n) + " points");
+    vtkSmartPointer<vtkDataArray> array;
+    if (a.integer)
+      array = vtkSmartPointer<vtkIntArray>::New();
+    else
+      array = vtkSmartPointer<vtkDoubleArray>::New();
+    array->SetName(a.name.c_str());
+    array->SetNumberOfComponents(a.components);
+    array->SetNumberOfTuples(n);
+    for (vtkIdType p = 0; p < n; ++p)
+      for (int k = 0; k < a.components; ++k)
+        array->SetComponent(p, k, a.values[static_cast<std::size_t>(p) * a.components + k]);
+    ug->GetPointData()->AddArray(array);
+  }
+  if (!cloud.vectors.empty()) ug->GetPointData()->SetActiveVectors(cloud.vectors.c_str());
 
   const int rank = rank_of(comm_);
   int size;
   MPI_Comm_size(comm_, &size);
-  const std::string stem = numbered("contacts", index);
+  const std::string stem = numbered(name_, index);
   const std::string file = directory_ + "/" + stem + ".pvtu";
   // As for the particles: pieces and .pvtu staged, moved into place once
   // every rank has written, the .pvtu last, then the .pvd. Every rank writes
@@ -622,7 +620,7 @@ std::string ContactSeries<dim>::write(const std::vector<ContactSample<dim>>& con
   writer->SetHeaderTypeToUInt32();
   int ok = writer->Write() == 1, all_ok = 0;
   MPI_Allreduce(&ok, &all_ok, 1, MPI_INT, MPI_MIN, comm_);
-  if (!all_ok) throw std::runtime_error("VTK could not write the contact pieces in " + staging);
+  if (!all_ok) throw std::runtime_error("VTK could not write the " + name_ + " pieces in " + staging);
   std::filesystem::rename(staging + "/" + piece, directory_ + "/" + piece);
   MPI_Barrier(comm_);
   if (rank == 0) {
@@ -638,11 +636,15 @@ std::string ContactSeries<dim>::write(const std::vector<ContactSample<dim>>& con
 #endif
           << "\" header_type=\"UInt32\" compressor=\"vtkZLibDataCompressor\">\n"
           << "  <PUnstructuredGrid GhostLevel=\"0\">\n"
-          << "    <PPointData Vectors=\"contact_force\">\n"
-          << "      <PDataArray type=\"Float64\" Name=\"contact_force\" NumberOfComponents=\"3\"/>\n"
-          << "      <PDataArray type=\"Int32\" Name=\"obstacle\"/>\n"
-          << "      <PDataArray type=\"Int32\" Name=\"contact_state\"/>\n"
-          << "    </PPointData>\n"
+          << "    <PPointData";
+      if (!cloud.vectors.empty()) out << " Vectors=\"" << cloud.vectors << "\"";
+      out << ">\n";
+      for (const PointCloud::Array& a : cloud.arrays) {
+        out << "      <PDataArray type=\"" << (a.integer ? "Int32" : "Float64") << "\" Name=\"" << a.name << "\"";
+        if (a.components != 1) out << " NumberOfComponents=\"" << a.components << "\"";
+        out << "/>\n";
+      }
+      out << "    </PPointData>\n"
           << "    <PPoints>\n"
           << "      <PDataArray type=\"Float64\" Name=\"Points\" NumberOfComponents=\"3\"/>\n"
           << "    </PPoints>\n";
@@ -653,16 +655,34 @@ std::string ContactSeries<dim>::write(const std::vector<ContactSample<dim>>& con
     std::filesystem::rename(staged, file);
     std::filesystem::remove(staging);
     entries_.emplace_back(time, stem + ".pvtu");
-    write_pvd_file(directory_ + "/contacts.pvd", entries_);
+    write_pvd_file(directory_ + "/" + name_ + ".pvd", entries_);
   }
   return file;
 }
 
-template <int dim>
-void ContactSeries<dim>::resume(const std::vector<std::pair<double, std::string>>& particle_entries) {
+void PointCloudSeries::resume(const std::vector<std::pair<double, std::string>>& particle_entries) {
   if (rank_of(comm_) != 0) return;
-  entries_ = companion_entries(directory_, "contacts", ".pvtu", particle_entries);
-  write_pvd_file(directory_ + "/contacts.pvd", entries_);
+  entries_ = companion_entries(directory_, name_, ".pvtu", particle_entries);
+  write_pvd_file(directory_ + "/" + name_ + ".pvd", entries_);
+}
+
+template <int dim>
+ContactSeries<dim>::ContactSeries(MPI_Comm comm, std::string directory) : series_(comm, std::move(directory), "contacts") {}
+
+template <int dim>
+std::string ContactSeries<dim>::write(const std::vector<ContactSample<dim>>& contacts, double time,
+                                      std::size_t index) {
+  PointCloud cloud;
+  cloud.arrays = {{"contact_force", 3, false, {}}, {"obstacle", 1, true, {}}, {"contact_state", 1, true, {}}};
+  cloud.vectors = "contact_force";
+  for (const ContactSample<dim>& c : contacts) {
+    cloud.points.push_back(to_point<dim>(c.position));
+    const Point3 f = to_point<dim>(c.force);
+    cloud.arrays[0].values.insert(cloud.arrays[0].values.end(), f.begin(), f.end());
+    cloud.arrays[1].values.push_back(c.obstacle);
+    cloud.arrays[2].values.push_back(c.state);
+  }
+  return series_.write(cloud, time, index);
 }
 
 template class ObstacleSeries<2>;

@@ -81,7 +81,7 @@ std::unique_ptr<Material> DruckerPrager::from_yaml(YamlSection& y) {
   if (y.has("tension_cutoff")) {
     par.tension_cutoff = y.real("tension_cutoff");
     if (!(par.tension_cutoff >= 0.0))
-      y.fail_value("tension_cutoff", std::to_string(par.tension_cutoff), "must be >= 0");
+      y.fail_value("tension_cutoff", "must be >= 0");
   }
   return std::make_unique<DruckerPrager>(par);
 }

@@ -35,6 +35,7 @@ struct OutputConfig {
   std::string directory = "output";
   double interval = 0;  // 0: only the first and last states
   bool enabled = true;
+  bool grid = false;    // also the grid points of the last step (grid.pvd)
 };
 
 struct CheckpointConfig {

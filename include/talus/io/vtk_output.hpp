@@ -5,7 +5,8 @@
 //
 // With obstacles, also: the obstacles as polydata (one .vtp per output,
 // obstacles.pvd), the contact points of the last step (contacts.pvd), and the
-// force on each obstacle at every step (obstacle_forces.csv).
+// force on each obstacle at every step (obstacle_forces.csv). With
+// output.grid, the grid points of the last step (grid.pvd).
 #include <array>
 #include <cstdio>
 #include <memory>
@@ -110,20 +111,53 @@ struct ContactSample {
   int state = 0;
 };
 
-// contacts_NNNNNN.pvtu with one contacts_NNNNNN_R.vtu per rank (every rank,
-// also those without contact points: an empty, valid piece), and contacts.pvd.
-template <int dim>
-class ContactSeries {
+// A set of points with point data, written by PointCloudSeries: the
+// contact points and the grid points of the last step.
+struct PointCloud {
+  struct Array {
+    std::string name;
+    int components = 1;          // values per point
+    bool integer = false;        // written as Int32, else Float64
+    std::vector<double> values;  // components per point, point after point
+  };
+  std::vector<std::array<double, 3>> points;  // z = 0 in 2D
+  std::vector<Array> arrays;                  // the same names and kinds on every rank
+  std::string vectors;                        // the array ParaView shows as vectors ("" for none)
+};
+
+// <name>_NNNNNN.pvtu with one <name>_NNNNNN_R.vtu per rank (every rank, also
+// those without points: an empty, valid piece), and <name>.pvd. NNNNNN is the
+// index of the particle output written at the same time. The pieces and the
+// .pvtu are written in a staging directory and moved into place once every
+// rank has written, the .pvtu last, then the .pvd.
+class PointCloudSeries {
  public:
-  ContactSeries(MPI_Comm comm, std::string directory);
-  std::string write(const std::vector<ContactSample<dim>>& contacts, double time, std::size_t index);
+  PointCloudSeries(MPI_Comm comm, std::string directory, std::string name);
+  std::string write(const PointCloud& cloud, double time, std::size_t index);
+  // After a restart: the entries of the particle series, each mapped to the
+  // file of this series of the same index that exists in the directory.
   void resume(const std::vector<std::pair<double, std::string>>& particle_entries);
   const std::vector<std::pair<double, std::string>>& entries() const { return entries_; }
 
  private:
   MPI_Comm comm_;
-  std::string directory_;
+  std::string directory_, name_;
   std::vector<std::pair<double, std::string>> entries_;
+};
+
+// contacts_NNNNNN.pvtu with one contacts_NNNNNN_R.vtu per rank, and
+// contacts.pvd (a PointCloudSeries): point data contact_force, obstacle,
+// contact_state.
+template <int dim>
+class ContactSeries {
+ public:
+  ContactSeries(MPI_Comm comm, std::string directory);
+  std::string write(const std::vector<ContactSample<dim>>& contacts, double time, std::size_t index);
+  void resume(const std::vector<std::pair<double, std::string>>& particle_entries) { series_.resume(particle_entries); }
+  const std::vector<std::pair<double, std::string>>& entries() const { return series_.entries(); }
+
+ private:
+  PointCloudSeries series_;
 };
 
 // obstacle_forces.csv: `time,<name>_fx,<name>_fy[,<name>_fz],...`, one row

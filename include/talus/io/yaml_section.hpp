@@ -14,6 +14,10 @@
 
 namespace talus {
 
+// A computed number in a message: the shortest text that reads back to the
+// same double ("0.5", "1e-12", "2"), not std::to_string's six decimals.
+std::string number_text(double value);
+
 class YamlSection {
  public:
   YamlSection(YAML::Node node, std::string path, std::string file);
@@ -45,6 +49,12 @@ class YamlSection {
   double positive(const std::string& key, double value) const;
   [[noreturn]] void fail(const std::string& key, const std::string& message) const;
   [[noreturn]] void fail_value(const std::string& key, const std::string& value, const std::string& message) const;
+  // The same with the value as the file writes it (`key = 0.5: ...`, never
+  // "0.500000"); a key that is absent is named without a value.
+  [[noreturn]] void fail_value(const std::string& key, const std::string& message) const;
+  // The value of `key` as written in the file: its scalar text, or a list or
+  // map on one line; empty if the key is absent.
+  std::string written(const std::string& key) const;
 
   // Reject keys that were never read.
   void finish() const;
