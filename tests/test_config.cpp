@@ -97,7 +97,7 @@ TEST_CASE("malformed cases name the key, the value and the line", "[config]") {
        "materials[0].cohesion = -5"},
       {replace(valid, "box: {lower: [0.5, 0], upper: [1.0, 0.5]}", "polygon: [[0.5, 0], [1.0, 0], [1.0, 0.5], [0.5, 0.5]]\n    box: {lower: [0.5, 0], upper: [1.0, 0.5]}"),
        "bodies[0].box: give either box or polygon, not both"},
-      {replace(valid, "    box: {lower: [0.5, 0], upper: [1.0, 0.5]}\n", ""), "case.yaml:14: bodies[0].box: is required (or polygon, in 2D)"},
+      {replace(valid, "    box: {lower: [0.5, 0], upper: [1.0, 0.5]}\n", ""), "case.yaml:14: bodies[0].box: is required (or polygon)"},
       {replace(valid, "box: {lower: [0.5, 0], upper: [1.0, 0.5]}", "polygon: [[0.5, 0], [1.0, 0]]"),
        "case.yaml:16: bodies[0].polygon: needs at least 3 vertices"},
       {replace(valid, "box: {lower: [0.5, 0], upper: [1.0, 0.5]}", "polygon: [[0.5, 0], [1.0, 0], [0.5, 0.5], [1.0, 0.5]]"),
@@ -217,6 +217,42 @@ TEST_CASE("a polygon body is filled with exactly the lattice points inside it", 
   // lattice resolution along the inclined edge (1 m long, spacing 0.05).
   const double area = 0.5 * (1.7 + 0.9) * 0.6;
   CHECK(std::abs(mass.size() * 0.05 * 0.05 - area) <= 0.5 * 1.0 * 0.05);
+}
+
+TEST_CASE("a 3D polygon body is its vertical section extruded along y", "[config][seeding]") {
+  // The 2D slope profile of the test above, as an (x, z) section extruded
+  // over y in [0.1, 0.4]: every lattice layer across y holds the 2D lattice
+  // points of the section, so the count is the 2D count times 6 layers
+  // (spacing 0.05), and every particle lies in the section and the y range.
+  const std::string yaml =
+      "grid: {lower: [0, 0, 0], upper: [2.0, 0.5, 1.0], cell_size: 0.1}\n"
+      "time: {end: 1, step: 0.01}\n"
+      "output: {enabled: false}\n"
+      "gravity: [0, 0, -9.81]\n"
+      "materials: [{name: m, model: linear_elastic, density: 2000, youngs_modulus: 1.0e6, poisson_ratio: 0.3}]\n"
+      "bodies: [{name: slope, material: m, polygon: [[0.2, 0], [1.9, 0], [1.9, 0.6], [1.0, 0.6]], "
+      "extrusion: [0.1, 0.4]}]\n";
+  const CaseConfig config = testing::case_from_yaml(yaml);
+  CHECK(config.bodies[0].box_lower == std::vector<double>{0.2, 0.1, 0.0});
+  CHECK(config.bodies[0].box_upper == std::vector<double>{1.9, 0.4, 0.6});
+  Simulation<3> sim(config, PETSC_COMM_WORLD);
+  const std::vector<double> x = testing::gather_by_id(sim.particles(), field::position, 3);
+  long section = 0;
+  for (int i = 0; i < 40; ++i)
+    for (int j = 0; j < 20; ++j) {
+      const double px = 0.025 + 0.05 * i, pz = 0.025 + 0.05 * j;
+      section += pz < 0.6 && px < 1.9 && pz < 0.75 * (px - 0.2);
+    }
+  CHECK(static_cast<long>(x.size() / 3) == 6 * section);
+  for (std::size_t p = 0; p < x.size() / 3; ++p) {
+    CHECK(x[3 * p + 2] < 0.75 * (x[3 * p] - 0.2));
+    CHECK(x[3 * p + 1] > 0.1);
+    CHECK(x[3 * p + 1] < 0.4);
+  }
+  // The extrusion belongs to 3D polygons only.
+  CHECK_THROWS_WITH(testing::case_from_yaml(replace(valid, "box: {lower: [0.5, 0], upper: [1.0, 0.5]}",
+                                                    "polygon: [[0.2, 0], [1.9, 0], [1.9, 0.6]]\n    extrusion: [0, 1]")),
+                    Catch::Contains("extrusion: is only used in 3D"));
 }
 
 // ------------------------------------------------------------ contact keys

@@ -621,10 +621,12 @@ bool body_has_particle(const CaseConfig& c, const BodyConfig& body) {
     if (last[a] < first[a]) return false;
   }
   if (body.polygon.empty()) return true;
+  // The polygon lies in the (x, last axis) plane; in 3D it is extruded along y.
   const auto& poly = body.polygon;
+  const int v = c.dim - 1;
   for (long i = first[0]; i <= last[0]; ++i)
-    for (long j = first[1]; j <= last[1]; ++j) {
-      const double x = c.grid.lower[0] + (i + 0.5) * spacing, y = c.grid.lower[1] + (j + 0.5) * spacing;
+    for (long j = first[v]; j <= last[v]; ++j) {
+      const double x = c.grid.lower[0] + (i + 0.5) * spacing, y = c.grid.lower[v] + (j + 0.5) * spacing;
       bool inside = false;
       for (std::size_t k = 0, l = poly.size() - 1; k < poly.size(); l = k++)
         if ((poly[k][1] > y) != (poly[l][1] > y) &&
@@ -657,8 +659,8 @@ std::string body_buried_by(const CaseConfig& c, const BodyConfig& body) {
       inside_body = false;
       const auto& poly = body.polygon;
       for (std::size_t k = 0, l = poly.size() - 1; k < poly.size(); l = k++)
-        if ((poly[k][1] > x[1]) != (poly[l][1] > x[1]) &&
-            x[0] < poly[k][0] + (x[1] - poly[k][1]) * (poly[l][0] - poly[k][0]) / (poly[l][1] - poly[k][1]))
+        if ((poly[k][1] > x[dim - 1]) != (poly[l][1] > x[dim - 1]) &&
+            x[0] < poly[k][0] + (x[dim - 1] - poly[k][1]) * (poly[l][0] - poly[k][0]) / (poly[l][1] - poly[k][1]))
           inside_body = !inside_body;
     }
     if (inside_body) {
@@ -758,7 +760,7 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
     if (it == c.materials.end()) b.fail_value("material", material, "names no material in 'materials'");
     bc.material = static_cast<int>(it - c.materials.begin());
     if (b.has("box") == b.has("polygon"))
-      b.fail("box", b.has("box") ? "give either box or polygon, not both" : "is required (or polygon, in 2D)");
+      b.fail("box", b.has("box") ? "give either box or polygon, not both" : "is required (or polygon)");
     if (b.has("box")) {
       YamlSection box = b.section("box");
       bc.box_lower = box.reals("lower", c.dim);
@@ -770,23 +772,39 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
       }
       box.finish();
     } else {
-      if (c.dim != 2) b.fail("polygon", "is a 2D body shape (the grid is 3D)");
+      // 2D: vertices (x, y). 3D: a vertical section, vertices (x, z), extruded
+      // along y over `extrusion: [y_from, y_to]` (a landslide cross-section
+      // across the slope).
       const auto vertices = b.points("polygon", 2);
       if (vertices.size() < 3) b.fail("polygon", "needs at least 3 vertices");
       double area2 = 0.0;
-      bc.box_lower = vertices[0];
-      bc.box_upper = vertices[0];
+      const int v = c.dim - 1;  // the grid axis of the vertices' second coordinate
+      std::vector<double> lo = vertices[0], hi = vertices[0];
       for (std::size_t i = 0; i < vertices.size(); ++i) {
         const auto& p = vertices[i];
         const auto& q = vertices[(i + 1) % vertices.size()];
         area2 += p[0] * q[1] - q[0] * p[1];
         for (int a = 0; a < 2; ++a) {
-          if (p[a] < c.grid.lower[a] || p[a] > c.grid.upper[a])
+          const int axis = a == 0 ? 0 : v;
+          if (p[a] < c.grid.lower[axis] || p[a] > c.grid.upper[axis])
             b.fail("polygon", "vertex " + std::to_string(i) + " lies outside the grid box");
-          bc.box_lower[a] = std::min(bc.box_lower[a], p[a]);
-          bc.box_upper[a] = std::max(bc.box_upper[a], p[a]);
+          lo[a] = std::min(lo[a], p[a]);
+          hi[a] = std::max(hi[a], p[a]);
         }
         bc.polygon.push_back({p[0], p[1]});
+      }
+      bc.box_lower.assign(c.dim, 0.0);
+      bc.box_upper.assign(c.dim, 0.0);
+      bc.box_lower[0] = lo[0], bc.box_upper[0] = hi[0];
+      bc.box_lower[v] = lo[1], bc.box_upper[v] = hi[1];
+      if (c.dim == 3) {
+        if (!b.has("extrusion")) b.fail("extrusion", "is required with a polygon in 3D: [y_from, y_to], the extent across the section");
+        const auto e = b.reals("extrusion", 2);
+        if (!(e[1] > e[0])) b.fail("extrusion", "must be [y_from, y_to] with y_to > y_from");
+        if (e[0] < c.grid.lower[1] || e[1] > c.grid.upper[1]) b.fail("extrusion", "lies outside the grid box along y");
+        bc.box_lower[1] = e[0], bc.box_upper[1] = e[1];
+      } else if (b.has("extrusion")) {
+        b.fail("extrusion", "is only used in 3D (a polygon extruded along y)");
       }
       // Edges that cross would make "inside" ambiguous.
       const std::size_t n = vertices.size();
@@ -805,8 +823,7 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
             b.fail("polygon", "edges " + std::to_string(i) + " and " + std::to_string(j) +
                                   " cross (the polygon must be simple)");
         }
-      if (std::abs(area2) <= 1e-12 * (bc.box_upper[0] - bc.box_lower[0]) * (bc.box_upper[1] - bc.box_lower[1]) ||
-          !(bc.box_upper[0] > bc.box_lower[0] && bc.box_upper[1] > bc.box_lower[1]))
+      if (std::abs(area2) <= 1e-12 * (hi[0] - lo[0]) * (hi[1] - lo[1]) || !(hi[0] > lo[0] && hi[1] > lo[1]))
         b.fail("polygon", "has zero area");
     }
     bc.particles_per_cell = b.integer("particles_per_cell", 2);

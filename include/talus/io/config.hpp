@@ -52,8 +52,9 @@ struct MaterialConfig {
 struct BodyConfig {
   std::string name;
   int material = 0;  // index into CaseConfig::materials
-  // The region filled with particles: a box, or (2D) a simple polygon whose
-  // bounding box is box_lower/box_upper.
+  // The region filled with particles: a box, or a simple polygon (2D: (x, y);
+  // 3D: an (x, z) section extruded over y) whose bounding box is
+  // box_lower/box_upper.
   std::vector<double> box_lower, box_upper;
   std::vector<std::array<double, 2>> polygon;  // vertices in order; empty for a box
   int particles_per_cell = 2;  // per axis

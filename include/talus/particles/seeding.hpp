@@ -11,7 +11,7 @@
 namespace talus {
 
 // Puts particles_per_cell^dim particles per grid cell at sub-cell centres
-// inside the body's box (or, in 2D, its polygon), each with volume (h / ppc)^dim (per unit thickness in
+// inside the body's box or polygon (in 3D: the (x, z) section extruded over y), each with volume (h / ppc)^dim (per unit thickness in
 // 2D), density from the material, the body's initial velocity and zero stress.
 // Every rank creates the particles it owns, so no particle crosses the network.
 // Particle ids are the lattice order offset by `first_id`, identical for any
