@@ -22,6 +22,15 @@ class vtkMPICommunicator;
 
 namespace talus {
 
+// A point in VTK's three coordinates (z = 0 in 2D).
+using Point3 = std::array<double, 3>;
+template <int dim>
+Point3 to_point(const Vector<dim>& x) {
+  Point3 p{0.0, 0.0, 0.0};
+  for (int a = 0; a < dim; ++a) p[a] = x[a];
+  return p;
+}
+
 template <int dim>
 class VtkSeries {
  public:
