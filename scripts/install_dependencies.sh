@@ -13,7 +13,7 @@ packages=(
   build-essential cmake ninja-build pkg-config
   petsc-dev libeigen3-dev libhdf5-openmpi-dev libvtk9-dev
   libopenmpi-dev openmpi-bin catch2 libyaml-cpp-dev
-  python3-numpy python3-matplotlib python3-vtk9 xvfb hdf5-tools
+  python3-numpy python3-matplotlib python3-vtk9 xvfb xauth hdf5-tools
   python3-yaml
 )
 

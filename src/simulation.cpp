@@ -71,7 +71,7 @@ Simulation<dim>::Simulation(const CaseConfig& config, MPI_Comm comm) : config_(c
   std::int64_t next_id = 0;
   for (std::size_t b = 0; b < config.bodies.size(); ++b) {
     const BodyConfig& body = config.bodies[b];
-    next_id += seed_box_body<dim>(*particles_, *grid_, body, *materials_[body.material], static_cast<int>(b), next_id,
+    next_id += seed_body<dim>(*particles_, *grid_, body, *materials_[body.material], static_cast<int>(b), next_id,
                                   -config.gravity[dim - 1], obstacles_.empty() ? nullptr : &obstacles_);
   }
   double local_max = 0.0;

@@ -13,6 +13,16 @@ for case in "$repo"/inputs/*.yaml; do
   "$talus" check "$case" > /dev/null || { echo "FAIL: talus check $case"; exit 1; }
 done
 
+# The particle file of inputs/landslide_from_particles.yaml is what
+# scripts/fill_between_profiles.py writes from its two profiles (the command
+# in the case's header), particle for particle.
+/usr/bin/python3 "$repo/scripts/fill_between_profiles.py" "$repo/inputs/terrain/hillside_2d.txt" \
+  "$repo/inputs/terrain/slide_top_2d.txt" --spacing 0.05 --out slide.csv > fill.log
+grep -v '^#' slide.csv > slide.rows
+grep -v '^#' "$repo/inputs/particles/slide_mass_2d.csv" > committed.rows
+cmp -s slide.rows committed.rows || { echo "FAIL: fill_between_profiles.py does not reproduce slide_mass_2d.csv"; exit 1; }
+grep -q "800 particles, area 2 m^2" fill.log || { echo "FAIL: fill_between_profiles.py: $(cat fill.log)"; exit 1; }
+
 # A non-physical value: exit code 2, the key and line named, no output directory.
 sed -e 's/poisson_ratio: 0.3/poisson_ratio: 0.7/' -e "s#directory: .*#directory: $work/bad_out#" \
   "$repo/inputs/elastic_column.yaml" > bad.yaml

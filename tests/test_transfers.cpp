@@ -66,7 +66,7 @@ void check_conservation(ShapeKind kind, TransferScheme scheme, double flip_blend
     void update(const Voigt&, const Voigt&, const double*, double*, MaterialPointUpdate&) const override {}
     const Tangent& elastic_stiffness() const override { static Tangent t = Tangent::Identity(); return t; }
   } dummy;
-  seed_box_body<dim>(particles, grid, bc, dummy, 0, 0);
+  seed_body<dim>(particles, grid, bc, dummy, 0, 0);
   // Random masses, velocities and affine velocities, keyed by particle id.
   {
     FieldView<PetscReal> m(particles.swarm(), field::mass), v(particles.swarm(), field::velocity),

@@ -11,6 +11,7 @@
 #include <sstream>
 #include <system_error>
 
+#include "talus/io/body_config.hpp"
 #include "talus/io/terrain_file.hpp"
 #include "talus/io/yaml_section.hpp"
 
@@ -199,77 +200,6 @@ ObstacleConfig parse_obstacle(YamlSection& o, const CaseConfig& c) {
   return ob;
 }
 
-// Whether the seeding lattice (src/particles/seeding.cpp: points at
-// grid.lower + (s + 1/2) * cell_size / particles_per_cell, box edges included
-// to 1e-9, polygons by the crossing-number test) puts a particle in the body.
-bool body_has_particle(const CaseConfig& c, const BodyConfig& body) {
-  const double spacing = c.grid.cell_size / body.particles_per_cell;
-  std::vector<long> first(c.dim), last(c.dim);
-  for (int a = 0; a < c.dim; ++a) {
-    first[a] = static_cast<long>(std::ceil((body.box_lower[a] - c.grid.lower[a]) / spacing - 0.5 - 1e-9));
-    last[a] = static_cast<long>(std::floor((body.box_upper[a] - c.grid.lower[a]) / spacing - 0.5 + 1e-9));
-    if (last[a] < first[a]) return false;
-  }
-  if (body.polygon.empty()) return true;
-  // The polygon lies in the (x, last axis) plane; in 3D it is extruded along y.
-  const auto& poly = body.polygon;
-  const int v = c.dim - 1;
-  for (long i = first[0]; i <= last[0]; ++i)
-    for (long j = first[v]; j <= last[v]; ++j) {
-      const double x = c.grid.lower[0] + (i + 0.5) * spacing, y = c.grid.lower[v] + (j + 0.5) * spacing;
-      bool inside = false;
-      for (std::size_t k = 0, l = poly.size() - 1; k < poly.size(); l = k++)
-        if ((poly[k][1] > y) != (poly[l][1] > y) &&
-            x < poly[k][0] + (y - poly[k][1]) * (poly[l][0] - poly[k][0]) / (poly[l][1] - poly[k][1]))
-          inside = !inside;
-      if (inside) return true;
-    }
-  return false;
-}
-
-// "" if some lattice point of the body (as in body_has_particle) lies outside
-// every obstacle at t = 0; otherwise the obstacles that bury it, for a message.
-template <int dim>
-std::string body_buried_by(const CaseConfig& c, const BodyConfig& body) {
-  std::vector<Obstacle<dim>> obstacles;
-  for (const ObstacleConfig& o : c.obstacles) obstacles.emplace_back(o);
-  const double spacing = c.grid.cell_size / body.particles_per_cell;
-  std::array<long, dim> first{}, last{}, s{};
-  for (int a = 0; a < dim; ++a) {
-    first[a] = static_cast<long>(std::ceil((body.box_lower[a] - c.grid.lower[a]) / spacing - 0.5 - 1e-9));
-    last[a] = static_cast<long>(std::floor((body.box_upper[a] - c.grid.lower[a]) / spacing - 0.5 + 1e-9));
-    if (last[a] < first[a]) return "";  // no lattice point at all: reported before
-  }
-  std::vector<bool> burying(obstacles.size(), false);
-  for (s = first;;) {
-    Vector<dim> x;
-    for (int a = 0; a < dim; ++a) x[a] = c.grid.lower[a] + (s[a] + 0.5) * spacing;
-    bool inside_body = true;
-    if (!body.polygon.empty()) {
-      inside_body = false;
-      const auto& poly = body.polygon;
-      for (std::size_t k = 0, l = poly.size() - 1; k < poly.size(); l = k++)
-        if ((poly[k][1] > x[dim - 1]) != (poly[l][1] > x[dim - 1]) &&
-            x[0] < poly[k][0] + (x[dim - 1] - poly[k][1]) * (poly[l][0] - poly[k][0]) / (poly[l][1] - poly[k][1]))
-          inside_body = !inside_body;
-    }
-    if (inside_body) {
-      bool buried = false;
-      for (std::size_t o = 0; o < obstacles.size(); ++o)
-        if (obstacles[o].gap(x, 0.0).gap < 0.0) buried = true, burying[o] = true;
-      if (!buried) return "";
-    }
-    int a = 0;
-    while (a < dim && s[a] == last[a]) s[a] = first[a], ++a;
-    if (a == dim) break;
-    ++s[a];
-  }
-  std::string names;
-  for (std::size_t o = 0; o < obstacles.size(); ++o)
-    if (burying[o]) names += (names.empty() ? "obstacle '" : ", '") + obstacles[o].name() + "'";
-  return names;
-}
-
 CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
   CaseConfig c;
   c.source_file = root.file();
@@ -341,103 +271,7 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
   }
 
   std::vector<YamlSection> body_sections = root.list("bodies");
-  for (YamlSection& b : body_sections) {
-    BodyConfig bc;
-    bc.name = b.text("name");
-    const std::string material = b.text("material");
-    const auto it = std::find_if(c.materials.begin(), c.materials.end(),
-                                 [&](const MaterialConfig& m) { return m.name == material; });
-    if (it == c.materials.end()) b.fail_value("material", material, "names no material in 'materials'");
-    bc.material = static_cast<int>(it - c.materials.begin());
-    if (b.has("box") == b.has("polygon"))
-      b.fail("box", b.has("box") ? "give either box or polygon, not both" : "is required (or polygon)");
-    if (b.has("box")) {
-      YamlSection box = b.section("box");
-      bc.box_lower = box.reals("lower", c.dim);
-      bc.box_upper = box.reals("upper", c.dim);
-      for (int a = 0; a < c.dim; ++a) {
-        if (!(bc.box_upper[a] > bc.box_lower[a])) box.fail("upper", "must be above lower on every axis");
-        if (bc.box_lower[a] < c.grid.lower[a]) box.fail("lower", "lies outside the grid box (below grid.lower)");
-        if (bc.box_upper[a] > c.grid.upper[a]) box.fail("upper", "lies outside the grid box (above grid.upper)");
-      }
-      box.finish();
-    } else {
-      // 2D: vertices (x, y). 3D: a vertical section, vertices (x, z), extruded
-      // along y over `extrusion: [y_from, y_to]` (a landslide cross-section
-      // across the slope).
-      const auto vertices = b.points("polygon", 2);
-      if (vertices.size() < 3) b.fail("polygon", "needs at least 3 vertices");
-      double area2 = 0.0;
-      const int v = c.dim - 1;  // the grid axis of the vertices' second coordinate
-      std::vector<double> lo = vertices[0], hi = vertices[0];
-      for (std::size_t i = 0; i < vertices.size(); ++i) {
-        const auto& p = vertices[i];
-        const auto& q = vertices[(i + 1) % vertices.size()];
-        area2 += p[0] * q[1] - q[0] * p[1];
-        for (int a = 0; a < 2; ++a) {
-          const int axis = a == 0 ? 0 : v;
-          if (p[a] < c.grid.lower[axis] || p[a] > c.grid.upper[axis])
-            b.fail("polygon", "vertex " + std::to_string(i) + " lies outside the grid box");
-          lo[a] = std::min(lo[a], p[a]);
-          hi[a] = std::max(hi[a], p[a]);
-        }
-        bc.polygon.push_back({p[0], p[1]});
-      }
-      bc.box_lower.assign(c.dim, 0.0);
-      bc.box_upper.assign(c.dim, 0.0);
-      bc.box_lower[0] = lo[0], bc.box_upper[0] = hi[0];
-      bc.box_lower[v] = lo[1], bc.box_upper[v] = hi[1];
-      if (c.dim == 3) {
-        if (!b.has("extrusion")) b.fail("extrusion", "is required with a polygon in 3D: [y_from, y_to], the extent across the section");
-        const auto e = b.reals("extrusion", 2);
-        if (!(e[1] > e[0])) b.fail("extrusion", "must be [y_from, y_to] with y_to > y_from");
-        if (e[0] < c.grid.lower[1] || e[1] > c.grid.upper[1]) b.fail("extrusion", "lies outside the grid box along y");
-        bc.box_lower[1] = e[0], bc.box_upper[1] = e[1];
-      } else if (b.has("extrusion")) {
-        b.fail("extrusion", "is only used in 3D (a polygon extruded along y)");
-      }
-      // Edges that cross would make "inside" ambiguous.
-      const std::size_t n = vertices.size();
-      for (std::size_t i = 0; i < n; ++i)
-        for (std::size_t j = i + 2; j < n; ++j) {
-          if (i == 0 && j == n - 1) continue;  // adjacent through the closing edge
-          const auto& a0 = bc.polygon[i];
-          const auto& a1 = bc.polygon[(i + 1) % n];
-          const auto& b0 = bc.polygon[j];
-          const auto& b1 = bc.polygon[(j + 1) % n];
-          const auto cross = [](const std::array<double, 2>& o, const std::array<double, 2>& p,
-                                const std::array<double, 2>& q) {
-            return (p[0] - o[0]) * (q[1] - o[1]) - (p[1] - o[1]) * (q[0] - o[0]);
-          };
-          if (cross(a0, a1, b0) * cross(a0, a1, b1) < 0 && cross(b0, b1, a0) * cross(b0, b1, a1) < 0)
-            b.fail("polygon", "edges " + std::to_string(i) + " and " + std::to_string(j) +
-                                  " cross (the polygon must be simple)");
-        }
-      if (std::abs(area2) <= 1e-12 * (hi[0] - lo[0]) * (hi[1] - lo[1]) || !(hi[0] > lo[0] && hi[1] > lo[1]))
-        b.fail("polygon", "has zero area");
-    }
-    bc.particles_per_cell = b.integer("particles_per_cell", 2);
-    if (bc.particles_per_cell < 1 || bc.particles_per_cell > 8)
-      b.fail_value("particles_per_cell", "must be in 1..8 (per axis)");
-    if (!body_has_particle(c, bc)) {
-      b.fail(bc.polygon.empty() ? "box" : "polygon",
-             "holds no particle (too thin for the particle spacing cell_size / particles_per_cell = " +
-                 number_text(c.grid.cell_size / bc.particles_per_cell) + " m)");
-    }
-    bc.velocity = b.has("velocity") ? b.reals("velocity", c.dim) : std::vector<double>(c.dim, 0.0);
-    bc.geostatic = b.choice("initial_stress", {"none", "geostatic"}, "none") == "geostatic";
-    if (b.has("k0")) {
-      if (!bc.geostatic) b.fail("k0", "is only used with initial_stress: geostatic");
-      bc.k0 = b.real("k0");
-      if (!(bc.k0 > 0.0 && bc.k0 <= 5.0)) b.fail_value("k0", "must be in (0, 5]");
-    }
-    if (bc.geostatic)
-      for (int a = 0; a + 1 < c.dim; ++a)
-        if (c.gravity[a] != 0.0 || !(c.gravity[c.dim - 1] < 0.0))
-          b.fail_value("initial_stress", "geostatic", "needs gravity pointing down the last axis (gravity = [0, -g] or [0, 0, -g])");
-    b.finish();
-    c.bodies.push_back(std::move(bc));
-  }
+  for (YamlSection& b : body_sections) c.bodies.push_back(parse_body(b, c));
 
   if (root.has("boundaries")) {
     YamlSection f = root.section("boundaries");
@@ -448,17 +282,7 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
 
   if (root.has("obstacles"))
     for (YamlSection& o : root.list("obstacles")) c.obstacles.push_back(parse_obstacle(o, c));
-  // Seeding leaves out the lattice points inside obstacles: a body buried
-  // entirely would silently vanish.
-  if (!c.obstacles.empty())
-    for (std::size_t b = 0; b < c.bodies.size(); ++b) {
-      const std::string buried_by =
-          c.dim == 2 ? body_buried_by<2>(c, c.bodies[b]) : body_buried_by<3>(c, c.bodies[b]);
-      if (!buried_by.empty())
-        body_sections[b].fail(c.bodies[b].polygon.empty() ? "box" : "polygon",
-                              "holds no particle outside the obstacles (its particles would all lie inside " +
-                                  buried_by + ")");
-    }
+  check_bodies_against_obstacles(body_sections, c);
 
   if (root.has("contact")) {
     YamlSection k = root.section("contact");

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cctype>
-#include <charconv>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -10,46 +9,17 @@
 
 namespace talus {
 
-namespace {
-
-// One number of a terrain file, as written in `token`; `what` names it.
-double terrain_number(const std::string& token, int line, const std::string& what) {
-  std::string t = token;
-  if (t.size() > 1 && t[0] == '+' && t[1] != '-' && t[1] != '+') t.erase(0, 1);  // from_chars takes no '+'
-  double v = 0;
-  const char* end = t.data() + t.size();
-  const auto [ptr, ec] = std::from_chars(t.data(), end, v);
-  if (ec == std::errc::result_out_of_range && ptr == end)
-    throw TerrainError{line, what + " '" + token + "' is not a finite number"};
-  if (t.empty() || ec != std::errc() || ptr != end) throw TerrainError{line, what + " '" + token + "' is not a number"};
-  if (!std::isfinite(v)) throw TerrainError{line, what + " '" + token + "' is not a finite number"};
-  return v;
-}
-
-std::vector<std::string> fields_of(std::string line, bool commas) {
-  if (commas) std::replace(line.begin(), line.end(), ',', ' ');
-  std::istringstream in(line);
-  std::vector<std::string> out;
-  std::string t;
-  while (in >> t) out.push_back(t);
-  return out;
-}
-
-}  // namespace
-
 std::vector<std::array<double, 2>> read_polyline(std::istream& in) {
   std::vector<std::array<double, 2>> vertices;
   std::string line, previous_x;
   for (int number = 1; std::getline(in, line); ++number) {
-    const std::size_t hash = line.find('#');
-    if (hash != std::string::npos) line.erase(hash);
-    const std::vector<std::string> f = fields_of(line, true);
+    const std::vector<std::string> f = split_fields(strip_comment(line), true);
     if (f.empty()) continue;
     if (f.size() != 2)
       throw TerrainError{number, "expected one vertex 'x height' (2 numbers), found " + std::to_string(f.size()) +
                                      " fields"};
-    const double x = terrain_number(f[0], number, "x");
-    const double z = terrain_number(f[1], number, "height");
+    const double x = file_number(f[0], number, "x");
+    const double z = file_number(f[1], number, "height");
     if (!vertices.empty() && !(x > vertices.back()[0]))
       throw TerrainError{number, "x must increase (" + f[0] + " after " + previous_x + ")"};
     vertices.push_back({x, z});
@@ -78,7 +48,7 @@ void read_height_map(std::istream& in, ObstacleConfig& o) {
   bool data = false;
   while (std::getline(in, line)) {
     ++number;
-    f = fields_of(line, false);
+    f = split_fields(line, false);
     if (f.empty()) continue;
     const std::string key = lower_case(f[0]);
     const bool word = std::isalpha(static_cast<unsigned char>(f[0][0])) && key != "nan" && key != "inf" &&
@@ -93,7 +63,7 @@ void read_height_map(std::istream& in, ObstacleConfig& o) {
                                      "cellsize, NODATA_value)"};
     if (f.size() != 2) throw TerrainError{number, "header line '" + f[0] + "' must hold one value"};
     if (header.count(key)) throw TerrainError{number, "header key '" + f[0] + "' is given twice"};
-    header[key] = {terrain_number(f[1], number, f[0]), f[1]};
+    header[key] = {file_number(f[1], number, f[0]), f[1]};
   }
   if (in.bad()) throw TerrainError{0, "cannot read the file"};
   for (const char* axis : {"x", "y"}) {
@@ -127,7 +97,7 @@ void read_height_map(std::istream& in, ObstacleConfig& o) {
     if (!first) {  // the first data line is already split
       if (!std::getline(in, line)) break;
       ++number;
-      f = fields_of(line, false);
+      f = split_fields(line, false);
       if (f.empty()) continue;
     }
     if (row == ny) throw TerrainError{number, "more than nrows = " + std::to_string(ny) + " rows of heights"};
@@ -136,7 +106,7 @@ void read_height_map(std::istream& in, ObstacleConfig& o) {
                                      " heights, ncols = " + std::to_string(nx)};
     for (int i = 0; i < nx; ++i) {
       const std::string where = "height in row " + std::to_string(row + 1) + ", column " + std::to_string(i + 1);
-      const double z = terrain_number(f[i], number, where);
+      const double z = file_number(f[i], number, where);
       if (has_nodata && z == nodata)
         throw TerrainError{number, "the " + where + " is the NODATA_value " + f[i] +
                                        ": the height map must have a height everywhere"};

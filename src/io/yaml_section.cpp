@@ -208,6 +208,28 @@ std::vector<std::vector<double>> YamlSection::points(const std::string& key, int
   return out;
 }
 
+std::vector<std::vector<int>> YamlSection::index_lists(const std::string& key) {
+  YAML::Node c = child(key, "a list of lists of integers");
+  if (!c.IsSequence() || c.size() == 0) fail_value(key, scalar_text(c), "must be a non-empty list of lists of integers");
+  std::vector<std::vector<int>> out;
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    const YAML::Node& entry = c[i];
+    const auto bad = [&](const std::string& message) {
+      throw InputError(file_ + ":" + std::to_string(entry.Mark().line + 1) + ": " + key_path(key) + "[" +
+                       std::to_string(i) + "] = " + scalar_text(entry) + ": " + message);
+    };
+    if (!entry.IsSequence() || entry.size() == 0) bad("must be a non-empty list of integers");
+    std::vector<int> list;
+    for (const auto& e : entry) {
+      int v = 0;
+      if (!e.IsScalar() || !YAML::convert<int>::decode(e, v)) bad("entry '" + scalar_text(e) + "' is not an integer");
+      list.push_back(v);
+    }
+    out.push_back(list);
+  }
+  return out;
+}
+
 YamlSection YamlSection::section(const std::string& key) {
   YAML::Node c = child(key, "a map");
   if (!c.IsMap()) fail_value(key, scalar_text(c), "must be a map of keys");

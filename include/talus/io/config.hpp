@@ -49,14 +49,21 @@ struct MaterialConfig {
   std::shared_ptr<const Material> law;
 };
 
+enum class BodyShape { box, polygon, polyhedron, particle_file };
+
 struct BodyConfig {
   std::string name;
   int material = 0;  // index into CaseConfig::materials
-  // The region filled with particles: a box, or a simple polygon (2D: (x, y);
-  // 3D: an (x, z) section extruded over y) whose bounding box is
-  // box_lower/box_upper.
+  BodyShape shape = BodyShape::box;
+  // The region filled with particles: a box, a simple polygon (2D: (x, y);
+  // 3D: an (x, z) section extruded over y) or a closed polyhedron (3D), whose
+  // bounding box is box_lower/box_upper.
   std::vector<double> box_lower, box_upper;
   std::vector<std::array<double, 2>> polygon;  // vertices in order; empty for a box
+  // Polyhedron: its faces split into triangles (fans from each face's first
+  // vertex), consistently oriented.
+  std::vector<std::array<double, 3>> polyhedron_vertices;
+  std::vector<std::array<int, 3>> polyhedron_triangles;
   int particles_per_cell = 2;  // per axis
   std::vector<double> velocity;
   // Initial stress: none, or geostatic (sigma_v = -rho |g| depth below the
@@ -64,6 +71,13 @@ struct BodyConfig {
   // last axis). k0 < 0: nu / (1 - nu) from the material's elastic stiffness.
   bool geostatic = false;
   double k0 = -1.0;
+  // Particles read from a file (shape particle_file): positions (dim per
+  // particle), volumes (m^3, m^2 per unit thickness in 2D), velocities (dim
+  // per particle, or empty: `velocity` for all) and each particle's line in
+  // the file, for messages.
+  std::string particle_file;  // as written in the case file
+  std::vector<double> file_positions, file_volumes, file_velocities;
+  std::vector<int> file_lines;
 };
 
 // Contact detection (docs/contact.md): a grid point is a contact candidate

@@ -7,14 +7,12 @@
 #include <vector>
 
 #include "talus/contact/obstacle.hpp"
+#include "talus/io/text_fields.hpp"
 
 namespace talus {
 
 // A problem in a terrain file: its line (0: the file as a whole) and what is wrong.
-struct TerrainError {
-  int line;
-  std::string message;
-};
+using TerrainError = FileLineError;
 
 // 2D terrain: one vertex "x height" per line (whitespace or comma separated,
 // '#' comments and blank lines allowed), x strictly increasing.

@@ -40,6 +40,8 @@ class YamlSection {
   std::vector<double> reals(const std::string& key, int length = -1);
   // A list of points, each a list of `dim` finite numbers: [[x, y], ...].
   std::vector<std::vector<double>> points(const std::string& key, int dim);
+  // A list of non-empty lists of integers: [[0, 1, 2], [2, 1, 3, 4], ...].
+  std::vector<std::vector<int>> index_lists(const std::string& key);
   YamlSection section(const std::string& key);
   std::vector<YamlSection> list(const std::string& key);  // list of maps
   // All entries of a map whose keys are not known in advance (e.g. PETSc options).

@@ -10,7 +10,8 @@
 
 namespace talus {
 
-// Puts particles_per_cell^dim particles per grid cell at sub-cell centres
+// Puts the body's particles: those of its particle file, or
+// particles_per_cell^dim particles per grid cell at sub-cell centres
 // inside the body's box or polygon (in 3D: the (x, z) section extruded over y), each with volume (h / ppc)^dim (per unit thickness in
 // 2D), density from the material, the body's initial velocity and zero stress.
 // Every rank creates the particles it owns, so no particle crosses the network.
@@ -22,7 +23,7 @@ namespace talus {
 // Lattice points inside an obstacle (negative gap at t = 0) are left out, so
 // a box body placed on a terrain is cut by it (docs/contact.md).
 template <int dim>
-std::int64_t seed_box_body(Particles<dim>& particles, const Grid<dim>& grid, const BodyConfig& body,
+std::int64_t seed_body(Particles<dim>& particles, const Grid<dim>& grid, const BodyConfig& body,
                            const Material& material, int body_index, std::int64_t first_id,
                            double gravity_magnitude = 0.0, const std::vector<Obstacle<dim>>* obstacles = nullptr);
 

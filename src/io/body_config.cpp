@@ -1,0 +1,323 @@
+#include "talus/io/body_config.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <system_error>
+#include <utility>
+
+#include "talus/io/particle_file.hpp"
+#include "talus/particles/body_region.hpp"
+
+namespace talus {
+
+namespace {
+
+// The key that defines a body's region, for messages.
+const char* region_key(const BodyConfig& body) {
+  switch (body.shape) {
+    case BodyShape::box: return "box";
+    case BodyShape::polygon: return "polygon";
+    case BodyShape::polyhedron: return "polyhedron";
+    case BodyShape::particle_file: return "particles";
+  }
+  return "box";
+}
+
+void parse_box(YamlSection& b, const CaseConfig& c, BodyConfig& bc) {
+  YamlSection box = b.section("box");
+  bc.box_lower = box.reals("lower", c.dim);
+  bc.box_upper = box.reals("upper", c.dim);
+  for (int a = 0; a < c.dim; ++a) {
+    if (!(bc.box_upper[a] > bc.box_lower[a])) box.fail("upper", "must be above lower on every axis");
+    if (bc.box_lower[a] < c.grid.lower[a]) box.fail("lower", "lies outside the grid box (below grid.lower)");
+    if (bc.box_upper[a] > c.grid.upper[a]) box.fail("upper", "lies outside the grid box (above grid.upper)");
+  }
+  box.finish();
+}
+
+// 2D: vertices (x, y). 3D: a vertical section, vertices (x, z), extruded along
+// y over `extrusion: [y_from, y_to]` (a landslide cross-section across the slope).
+void parse_polygon(YamlSection& b, const CaseConfig& c, BodyConfig& bc) {
+  const auto vertices = b.points("polygon", 2);
+  if (vertices.size() < 3) b.fail("polygon", "needs at least 3 vertices");
+  double area2 = 0.0;
+  const int v = c.dim - 1;  // the grid axis of the vertices' second coordinate
+  std::vector<double> lo = vertices[0], hi = vertices[0];
+  for (std::size_t i = 0; i < vertices.size(); ++i) {
+    const auto& p = vertices[i];
+    const auto& q = vertices[(i + 1) % vertices.size()];
+    area2 += p[0] * q[1] - q[0] * p[1];
+    for (int a = 0; a < 2; ++a) {
+      const int axis = a == 0 ? 0 : v;
+      if (p[a] < c.grid.lower[axis] || p[a] > c.grid.upper[axis])
+        b.fail("polygon", "vertex " + std::to_string(i) + " lies outside the grid box");
+      lo[a] = std::min(lo[a], p[a]);
+      hi[a] = std::max(hi[a], p[a]);
+    }
+    bc.polygon.push_back({p[0], p[1]});
+  }
+  bc.box_lower.assign(c.dim, 0.0);
+  bc.box_upper.assign(c.dim, 0.0);
+  bc.box_lower[0] = lo[0], bc.box_upper[0] = hi[0];
+  bc.box_lower[v] = lo[1], bc.box_upper[v] = hi[1];
+  if (c.dim == 3) {
+    if (!b.has("extrusion")) b.fail("extrusion", "is required with a polygon in 3D: [y_from, y_to], the extent across the section");
+    const auto e = b.reals("extrusion", 2);
+    if (!(e[1] > e[0])) b.fail("extrusion", "must be [y_from, y_to] with y_to > y_from");
+    if (e[0] < c.grid.lower[1] || e[1] > c.grid.upper[1]) b.fail("extrusion", "lies outside the grid box along y");
+    bc.box_lower[1] = e[0], bc.box_upper[1] = e[1];
+  } else if (b.has("extrusion")) {
+    b.fail("extrusion", "is only used in 3D (a polygon extruded along y)");
+  }
+  // Edges that cross would make "inside" ambiguous.
+  const std::size_t n = vertices.size();
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t j = i + 2; j < n; ++j) {
+      if (i == 0 && j == n - 1) continue;  // adjacent through the closing edge
+      const auto& a0 = bc.polygon[i];
+      const auto& a1 = bc.polygon[(i + 1) % n];
+      const auto& b0 = bc.polygon[j];
+      const auto& b1 = bc.polygon[(j + 1) % n];
+      const auto cross = [](const std::array<double, 2>& o, const std::array<double, 2>& p,
+                            const std::array<double, 2>& q) {
+        return (p[0] - o[0]) * (q[1] - o[1]) - (p[1] - o[1]) * (q[0] - o[0]);
+      };
+      if (cross(a0, a1, b0) * cross(a0, a1, b1) < 0 && cross(b0, b1, a0) * cross(b0, b1, a1) < 0)
+        b.fail("polygon", "edges " + std::to_string(i) + " and " + std::to_string(j) +
+                              " cross (the polygon must be simple)");
+    }
+  if (std::abs(area2) <= 1e-12 * (hi[0] - lo[0]) * (hi[1] - lo[1]) || !(hi[0] > lo[0] && hi[1] > lo[1]))
+    b.fail("polygon", "has zero area");
+}
+
+// A closed polyhedron: vertices and faces (each a list of vertex indices, all
+// faces ordered the same way around their outward normals). Each face is split
+// into a fan of triangles from its first vertex; "inside" is the winding
+// number, so faces need not be convex or exactly planar.
+void parse_polyhedron(YamlSection& b, const CaseConfig& c, BodyConfig& bc) {
+  YamlSection p = b.section("polyhedron");
+  if (c.dim != 3) b.fail("polyhedron", "is only used in 3D (in 2D a body is a box or a polygon)");
+  const auto vertices = p.points("vertices", 3);
+  if (vertices.size() < 4) p.fail("vertices", "needs at least 4 vertices");
+  bc.box_lower = vertices[0];
+  bc.box_upper = vertices[0];
+  for (std::size_t i = 0; i < vertices.size(); ++i) {
+    for (int a = 0; a < 3; ++a) {
+      if (vertices[i][a] < c.grid.lower[a] || vertices[i][a] > c.grid.upper[a])
+        p.fail("vertices", "vertex " + std::to_string(i) + " lies outside the grid box");
+      bc.box_lower[a] = std::min(bc.box_lower[a], vertices[i][a]);
+      bc.box_upper[a] = std::max(bc.box_upper[a], vertices[i][a]);
+    }
+    bc.polyhedron_vertices.push_back({vertices[i][0], vertices[i][1], vertices[i][2]});
+  }
+  const auto faces = p.index_lists("faces");
+  if (faces.size() < 4) p.fail("faces", "needs at least 4 faces (a closed surface)");
+  const int n = static_cast<int>(vertices.size());
+  std::map<std::pair<int, int>, std::size_t> edge_face;  // directed edge -> its face
+  for (std::size_t f = 0; f < faces.size(); ++f) {
+    const auto& face = faces[f];
+    const std::string which = "face " + std::to_string(f);
+    if (face.size() < 3) p.fail("faces", which + " has fewer than 3 vertices");
+    for (std::size_t k = 0; k < face.size(); ++k) {
+      if (face[k] < 0 || face[k] >= n)
+        p.fail("faces", which + " names vertex " + std::to_string(face[k]) + "; the vertices are 0.." +
+                            std::to_string(n - 1));
+      if (std::count(face.begin(), face.end(), face[k]) > 1)
+        p.fail("faces", which + " names vertex " + std::to_string(face[k]) + " twice");
+    }
+    for (std::size_t k = 0; k < face.size(); ++k) {
+      const std::pair<int, int> edge{face[k], face[(k + 1) % face.size()]};
+      const auto [at, fresh] = edge_face.emplace(edge, f);
+      if (!fresh)
+        p.fail("faces", "faces " + std::to_string(at->second) + " and " + std::to_string(f) + " both run from vertex " +
+                            std::to_string(edge.first) + " to " + std::to_string(edge.second) +
+                            " (order every face the same way around its outward normal)");
+    }
+    for (std::size_t k = 1; k + 1 < face.size(); ++k) bc.polyhedron_triangles.push_back({face[0], face[k], face[k + 1]});
+  }
+  for (const auto& [edge, f] : edge_face)
+    if (!edge_face.count({edge.second, edge.first}))
+      p.fail("faces", "the edge from vertex " + std::to_string(edge.first) + " to " + std::to_string(edge.second) +
+                          " of face " + std::to_string(f) + " belongs to no other face (the surface must be closed)");
+  // Against the cube of the bounding box's diagonal: a flat box has no volume.
+  const double diagonal = std::hypot(bc.box_upper[0] - bc.box_lower[0], bc.box_upper[1] - bc.box_lower[1],
+                                     bc.box_upper[2] - bc.box_lower[2]);
+  if (!(std::abs(enclosed_volume(bc.polyhedron_vertices, bc.polyhedron_triangles)) > 1e-12 * std::pow(diagonal, 3)))
+    p.fail("faces", "enclose no volume");
+  p.finish();
+}
+
+void parse_particle_file(YamlSection& b, const CaseConfig& c, BodyConfig& bc) {
+  bc.particle_file = b.text("particles");
+  // Relative to the case file's directory (so a case and its files move together).
+  std::filesystem::path path(bc.particle_file);
+  if (path.is_relative()) path = std::filesystem::path(c.source_file).parent_path() / path;
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    b.fail_value("particles", bc.particle_file, "is a directory, not a particle file (" + path.string() + ")");
+  std::ifstream in(path);
+  if (!in)
+    b.fail_value("particles", bc.particle_file,
+                 "cannot open the particle file " + path.string() + " (relative paths start at the case file's directory)");
+  const auto fail_at = [&](int line, const std::string& message) {
+    b.fail_value("particles", bc.particle_file,
+                 bc.particle_file + (line > 0 ? ":" + std::to_string(line) : "") + ": " + message);
+  };
+  ParticleTable table;
+  try {
+    table = read_particle_table(in, c.dim);
+  } catch (const FileLineError& e) {
+    fail_at(e.line, e.message);
+  }
+  static const char* axis_name[3] = {"x", "y", "z"};
+  bc.box_lower.assign(c.dim, 0.0);
+  bc.box_upper.assign(c.dim, 0.0);
+  for (std::size_t k = 0; k < table.volumes.size(); ++k)
+    for (int a = 0; a < c.dim; ++a) {
+      const double x = table.positions[c.dim * k + a];
+      // Strictly inside: a particle on the boundary of the grid box has no owner.
+      if (!(x > c.grid.lower[a] && x < c.grid.upper[a]))
+        fail_at(table.lines[k], "the particle lies outside the grid box (" + std::string(axis_name[a]) + " = " +
+                                    number_text(x) + " is not in (" + number_text(c.grid.lower[a]) + ", " +
+                                    number_text(c.grid.upper[a]) + "))");
+      bc.box_lower[a] = k == 0 ? x : std::min(bc.box_lower[a], x);
+      bc.box_upper[a] = k == 0 ? x : std::max(bc.box_upper[a], x);
+    }
+  if (!table.velocities.empty() && b.has("velocity"))
+    b.fail("velocity", "the particle file " + bc.particle_file + " has velocity columns: give the velocity in one place");
+  for (const char* key : {"particles_per_cell", "polygon", "extrusion"})
+    if (b.has(key)) b.fail(key, "is not used with a particle file (the file gives each particle's position and volume)");
+  bc.file_positions = std::move(table.positions);
+  bc.file_volumes = std::move(table.volumes);
+  bc.file_velocities = std::move(table.velocities);
+  bc.file_lines = std::move(table.lines);
+}
+
+// Whether the seeding lattice puts a particle in the body.
+template <int dim>
+bool body_has_particle(const CaseConfig& c, const BodyConfig& body) {
+  const BodyLattice<dim> lattice(body, c.grid.lower, c.grid.cell_size);
+  const std::vector<bool> seeded = seeded_lattice_points<dim>(body, lattice);
+  return std::find(seeded.begin(), seeded.end(), true) != seeded.end();
+}
+
+// "" if some particle of the body lies outside every obstacle at t = 0;
+// otherwise the obstacles that bury it, for a message.
+template <int dim>
+std::string body_buried_by(const CaseConfig& c, const BodyConfig& body, const std::vector<Obstacle<dim>>& obstacles) {
+  const BodyLattice<dim> lattice(body, c.grid.lower, c.grid.cell_size);
+  const std::vector<bool> seeded = seeded_lattice_points<dim>(body, lattice);
+  std::vector<bool> burying(obstacles.size(), false);
+  for (std::int64_t id = 0; id < lattice.size; ++id) {
+    if (!seeded[id]) continue;
+    const Vector<dim> x = lattice.point(id);
+    bool buried = false;
+    for (std::size_t o = 0; o < obstacles.size(); ++o)
+      if (obstacles[o].gap(x, 0.0).gap < 0.0) buried = true, burying[o] = true;
+    if (!buried) return "";
+  }
+  std::string names;
+  for (std::size_t o = 0; o < obstacles.size(); ++o)
+    if (burying[o]) names += (names.empty() ? "obstacle '" : ", '") + obstacles[o].name() + "'";
+  return names;
+}
+
+template <int dim>
+void check_against_obstacles(std::vector<YamlSection>& sections, const CaseConfig& c) {
+  std::vector<Obstacle<dim>> obstacles;
+  for (const ObstacleConfig& o : c.obstacles) obstacles.emplace_back(o);
+  for (std::size_t b = 0; b < c.bodies.size(); ++b) {
+    const BodyConfig& body = c.bodies[b];
+    if (body.shape == BodyShape::particle_file) {
+      // A particle placed by hand inside an obstacle is a mistake, not something to cut away.
+      for (std::size_t k = 0; k < body.file_volumes.size(); ++k) {
+        const Vector<dim> x = Eigen::Map<const Vector<dim>>(&body.file_positions[dim * k]);
+        for (const Obstacle<dim>& o : obstacles)
+          if (o.gap(x, 0.0).gap < 0.0)
+            sections[b].fail_value("particles", body.particle_file,
+                                   body.particle_file + ":" + std::to_string(body.file_lines[k]) +
+                                       ": the particle lies inside obstacle '" + o.name() + "'");
+      }
+      continue;
+    }
+    const std::string buried_by = body_buried_by<dim>(c, body, obstacles);
+    if (!buried_by.empty())
+      sections[b].fail(region_key(body), "holds no particle outside the obstacles (its particles would all lie inside " +
+                                             buried_by + ")");
+  }
+}
+
+}  // namespace
+
+BodyConfig parse_body(YamlSection& b, const CaseConfig& c) {
+  BodyConfig bc;
+  bc.name = b.text("name");
+  const std::string material = b.text("material");
+  const auto it = std::find_if(c.materials.begin(), c.materials.end(),
+                               [&](const MaterialConfig& m) { return m.name == material; });
+  if (it == c.materials.end()) b.fail_value("material", material, "names no material in 'materials'");
+  bc.material = static_cast<int>(it - c.materials.begin());
+
+  std::vector<const char*> given;
+  for (const char* key : {"box", "polygon", "polyhedron", "particles"})
+    if (b.has(key)) given.push_back(key);
+  if (given.empty()) b.fail("box", "is required (or polygon, polyhedron, or particles: a particle file)");
+  if (given.size() > 1)
+    b.fail(given[1], std::string("give one of box, polygon, polyhedron and particles, not both ") + given[0] +
+                         " and " + given[1]);
+  const std::string shape = given[0];
+  if (shape == "box") {
+    bc.shape = BodyShape::box;
+    parse_box(b, c, bc);
+  } else if (shape == "polygon") {
+    bc.shape = BodyShape::polygon;
+    parse_polygon(b, c, bc);
+  } else if (shape == "polyhedron") {
+    bc.shape = BodyShape::polyhedron;
+    parse_polyhedron(b, c, bc);
+  } else {
+    bc.shape = BodyShape::particle_file;
+    parse_particle_file(b, c, bc);
+  }
+  if (bc.shape != BodyShape::particle_file) {
+    if (b.has("extrusion") && bc.shape != BodyShape::polygon)
+      b.fail("extrusion", "is only used with a polygon in 3D (a polygon extruded along y)");
+    bc.particles_per_cell = b.integer("particles_per_cell", 2);
+    if (bc.particles_per_cell < 1 || bc.particles_per_cell > 8)
+      b.fail_value("particles_per_cell", "must be in 1..8 (per axis)");
+    const bool has_particle = c.dim == 2 ? body_has_particle<2>(c, bc) : body_has_particle<3>(c, bc);
+    if (!has_particle)
+      b.fail(region_key(bc), "holds no particle (too thin for the particle spacing cell_size / particles_per_cell = " +
+                                 number_text(c.grid.cell_size / bc.particles_per_cell) + " m)");
+  }
+  bc.velocity = b.has("velocity") ? b.reals("velocity", c.dim) : std::vector<double>(c.dim, 0.0);
+  bc.geostatic = b.choice("initial_stress", {"none", "geostatic"}, "none") == "geostatic";
+  if (bc.geostatic && bc.shape == BodyShape::particle_file)
+    b.fail_value("initial_stress", "geostatic",
+                 "needs a body seeded on the lattice (box, polygon or polyhedron): the depth of a particle read "
+                 "from a file is not defined");
+  if (b.has("k0")) {
+    if (!bc.geostatic) b.fail("k0", "is only used with initial_stress: geostatic");
+    bc.k0 = b.real("k0");
+    if (!(bc.k0 > 0.0 && bc.k0 <= 5.0)) b.fail_value("k0", "must be in (0, 5]");
+  }
+  if (bc.geostatic)
+    for (int a = 0; a + 1 < c.dim; ++a)
+      if (c.gravity[a] != 0.0 || !(c.gravity[c.dim - 1] < 0.0))
+        b.fail_value("initial_stress", "geostatic", "needs gravity pointing down the last axis (gravity = [0, -g] or [0, 0, -g])");
+  b.finish();
+  return bc;
+}
+
+void check_bodies_against_obstacles(std::vector<YamlSection>& sections, const CaseConfig& c) {
+  if (c.obstacles.empty()) return;
+  if (c.dim == 2)
+    check_against_obstacles<2>(sections, c);
+  else
+    check_against_obstacles<3>(sections, c);
+}
+
+}  // namespace talus
