@@ -309,6 +309,9 @@ void check_system_jacobian(bool slip_floor_and_wall) {
   // Same bound as the plastic Jacobian test (tests/test_jacobian.cpp): round-off
   // 1e-16 |F| / eps and curvature eps |F''| are both below 1e-8 relative.
   CHECK(norm_diff <= 1e-6 * norm_jw);
+  // The block matrix of the direct solvers holds the same Jacobian: the same
+  // sums, only stored by dim x dim blocks (round-off at most).
+  CHECK(testing::block_matrix_difference(system, v, J) <= 1e-14);
   PetscInt rows;
   TALUS_PETSC(MatGetSize(J, &rows, nullptr));
   CHECK(rows == active.global_count() * dim);  // contact adds no unknowns

@@ -134,6 +134,9 @@ void check_jacobian(const std::string& shape, double theta, const std::string& m
   // to round-off (~1e-16 |F| / eps = 1e-12 relative); any missing or wrong
   // term (rotation, theta, constraints) shows at >= 1e-3.
   CHECK(norm_diff <= (linear ? 1e-9 : 1e-6) * norm_jw);
+  // The block matrix of the direct solvers holds the same Jacobian: the same
+  // sums, only stored by dim x dim blocks (round-off at most).
+  CHECK(testing::block_matrix_difference(system, v, J) <= 1e-14);
   // Constrained rows are m_i e_i: the Jacobian is non-singular and the diagonal is positive.
   Vec diag;
   TALUS_PETSC(VecDuplicate(v, &diag));

@@ -10,6 +10,7 @@
 
 #include "talus/io/config.hpp"
 #include "talus/particles/particles.hpp"
+#include "talus/solver/momentum_system.hpp"
 
 namespace talus::testing {
 
@@ -50,6 +51,24 @@ std::vector<double> gather_by_id(Particles<dim>& particles, const char* name, in
   for (int k = 0; k < total; ++k)
     for (int b = 0; b < block; ++b) ordered[static_cast<std::size_t>(k) * block + b] = all[order[k] * block + b];
   return ordered;
+}
+
+// ||J_BAIJ - J_AIJ||_F / ||J_AIJ||_F at v: the Jacobian assembled into a
+// block matrix (what the direct solvers get, src/solver/newton.cpp) against
+// the same Jacobian assembled into `aij`, which the caller has filled.
+template <int dim>
+double block_matrix_difference(MomentumSystem<dim>& system, Vec v, Mat aij) {
+  Mat baij = system.create_matrix(MATBAIJ);
+  system.jacobian(v, baij);
+  Mat converted;
+  MatConvert(baij, MATAIJ, MAT_INITIAL_MATRIX, &converted);
+  double norm = 0.0, difference = 0.0;
+  MatNorm(aij, NORM_FROBENIUS, &norm);
+  MatAXPY(converted, -1.0, aij, DIFFERENT_NONZERO_PATTERN);
+  MatNorm(converted, NORM_FROBENIUS, &difference);
+  MatDestroy(&converted);
+  MatDestroy(&baij);
+  return difference / norm;
 }
 
 inline int comm_size(MPI_Comm comm) {

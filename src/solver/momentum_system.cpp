@@ -369,7 +369,7 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
 }
 
 template <int dim>
-Mat MomentumSystem<dim>::create_matrix() const {
+Mat MomentumSystem<dim>::create_matrix(MatType type) const {
   // Point i couples with point j when one particle's stencil holds both, so
   // |i_a - j_a| <= reach on every axis (2 for quadratic B-splines, 1 for hats).
   // Counting the active points of that neighbourhood gives the block
@@ -410,9 +410,10 @@ Mat MomentumSystem<dim>::create_matrix() const {
   TALUS_PETSC(MatSetSizes(J, nloc * dim, nloc * dim, nglob * dim, nglob * dim));
   TALUS_PETSC(MatSetBlockSize(J, dim));
   // AIJ works with every preconditioner (GAMG, hypre, ILU, all direct
-  // solvers); -talus_mat_type baij assembles faster, with one index lookup per
-  // (point, point) pair instead of dim^2, where the preconditioner accepts it.
-  TALUS_PETSC(MatSetType(J, MATAIJ));
+  // solvers); BAIJ assembles faster, with one index lookup per (point, point)
+  // pair instead of dim^2, and factors faster (dim x dim block kernels), where
+  // the preconditioner accepts it (NewtonSolver chooses; docs/solver.md).
+  TALUS_PETSC(MatSetType(J, type));
   TALUS_PETSC(MatSetOptionsPrefix(J, "talus_"));
   TALUS_PETSC(MatSetFromOptions(J));
   TALUS_PETSC(MatXAIJSetPreallocation(J, dim, d_nnz.data(), o_nnz.data(), nullptr, nullptr));

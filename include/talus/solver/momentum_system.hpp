@@ -49,7 +49,9 @@ class MomentumSystem {
 
   void residual(Vec v, Vec F);
   void jacobian(Vec v, Mat J);
-  Mat create_matrix() const;  // preallocated for this step's couplings
+  // Preallocated for this step's couplings, block size dim, of `type` (MATAIJ
+  // or MATBAIJ) unless -talus_mat_type says otherwise.
+  Mat create_matrix(MatType type = MATAIJ) const;
   Vec initial_guess() const;  // v^n + h g on free components, 0 on constrained ones
   double momentum_scale() const;  // sum_i m_i (|v_i^n| + h |g|), all ranks
 

@@ -37,6 +37,7 @@ class NewtonSolver {
   // GMRES + GAMG above direct_limit unknowns), then the options database
   // under the prefix talus_.
   void configure(double absolute_tolerance, PetscInt unknowns);
+  MatType matrix_type() const;  // for the preconditioner configure() set up
 
   MPI_Comm comm_;
   PetscInt direct_limit_;
