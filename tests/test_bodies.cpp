@@ -437,6 +437,11 @@ TEST_CASE("malformed particle files and polyhedra name the case line, the file l
                                                         "[[0.5, 0.2, 0.2], [1.5, 0.2, 0.2], [0.5, 0.8, 0.2], [0.5, 0.2, 0.8], [1, 1, 1]], "
                                                         "faces: [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 4]]}}]\n"),
                     Catch::Contains("belongs to no other face (the surface must be closed)"));
+  // Two bodies with one name.
+  CHECK_THROWS_WITH(testing::case_from_yaml(header_3d + "bodies:\n"
+                                                        "  - {name: rock, material: m, box: {lower: [0, 0, 0], upper: [0.5, 0.5, 0.5]}}\n"
+                                                        "  - {name: rock, material: m, box: {lower: [1, 0, 0], upper: [1.5, 0.5, 0.5]}}\n"),
+                    Catch::Contains("<test case>:8: bodies[1].name = rock: is used by two bodies"));
   // 2D has no polyhedra.
   CHECK_THROWS_WITH(testing::case_from_yaml(
                         "grid: {lower: [0, 0], upper: [2, 1], cell_size: 0.1}\ntime: {end: 1, step: 0.01}\n"

@@ -271,7 +271,12 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
   }
 
   std::vector<YamlSection> body_sections = root.list("bodies");
-  for (YamlSection& b : body_sections) c.bodies.push_back(parse_body(b, c));
+  for (YamlSection& b : body_sections) {
+    c.bodies.push_back(parse_body(b, c));
+    // The output names bodies by index (body_id), but messages and users by name.
+    for (std::size_t k = 0; k + 1 < c.bodies.size(); ++k)
+      if (c.bodies[k].name == c.bodies.back().name) b.fail_value("name", c.bodies.back().name, "is used by two bodies");
+  }
 
   if (root.has("boundaries")) {
     YamlSection f = root.section("boundaries");
