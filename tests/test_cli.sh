@@ -14,14 +14,57 @@ for case in "$repo"/inputs/*.yaml; do
 done
 
 # The particle file of inputs/landslide_from_particles.yaml is what
-# scripts/fill_between_profiles.py writes from its two profiles (the command
+# scripts/fill_between_surfaces.py writes from its two profiles (the command
 # in the case's header), particle for particle.
-/usr/bin/python3 "$repo/scripts/fill_between_profiles.py" "$repo/inputs/terrain/hillside_2d.txt" \
+/usr/bin/python3 "$repo/scripts/fill_between_surfaces.py" "$repo/inputs/terrain/hillside_2d.txt" \
   "$repo/inputs/terrain/slide_top_2d.txt" --spacing 0.05 --out slide.csv > fill.log
 grep -v '^#' slide.csv > slide.rows
 grep -v '^#' "$repo/inputs/particles/slide_mass_2d.csv" > committed.rows
-cmp -s slide.rows committed.rows || { echo "FAIL: fill_between_profiles.py does not reproduce slide_mass_2d.csv"; exit 1; }
-grep -q "800 particles, area 2 m^2" fill.log || { echo "FAIL: fill_between_profiles.py: $(cat fill.log)"; exit 1; }
+cmp -s slide.rows committed.rows || { echo "FAIL: fill_between_surfaces.py does not reproduce slide_mass_2d.csv"; exit 1; }
+grep -q "800 particles, area 2 m^2" fill.log || { echo "FAIL: fill_between_surfaces.py: $(cat fill.log)"; exit 1; }
+
+# 3D: a bumpy sliding surface (an ESRI height map, 0.5 m cells) and the same
+# surface raised by 0.5 m at 15 interior nodes. Both are split into the same
+# triangles, so the mass between them is the piecewise-linear tent of the
+# thickness: exactly 15 x 0.5 x 0.5^2 = 1.875 m^3. The lattice volume must
+# match it to 2 % (spacing 0.05 m: a column's count is off by less than one
+# point, and the errors of about 300 columns average out). The case that puts
+# the particles on the sliding surface as its terrain obstacle must pass
+# `talus check`, which stops on any particle inside the obstacle: the script
+# must split the cells along the obstacle's diagonal.
+/usr/bin/python3 - <<'PY'
+import math
+def write(path, thickness):
+    with open(path, "w") as f:
+        f.write("ncols 9\nnrows 5\nxllcenter 0.0\nyllcenter 0.0\ncellsize 0.5\n")
+        for j in reversed(range(5)):  # north row first
+            row = []
+            for i in range(9):
+                z = 1.0 - 0.125 * i + 0.15 * math.sin(3 * i + 5 * j)
+                if thickness and 2 <= i <= 6 and 1 <= j <= 3:
+                    z += 0.5
+                row.append(f"{z:.17g}")
+            f.write(" ".join(row) + "\n")
+write("lower.asc", False)
+write("upper.asc", True)
+PY
+/usr/bin/python3 "$repo/scripts/fill_between_surfaces.py" lower.asc upper.asc --spacing 0.05 --out mass3d.csv > fill3d.log
+count=$(grep -cv '^#' mass3d.csv)
+/usr/bin/python3 -c "
+n = $count - 1  # the header line
+v = n * 0.05**3
+assert abs(v - 1.875) <= 0.02 * 1.875, (n, v)
+print(f'3D fill: {n} particles, {v:.5f} m^3 against 1.875')" || { echo "FAIL: fill_between_surfaces.py 3D volume"; cat fill3d.log; exit 1; }
+cat > mass3d.yaml <<EOF
+grid: {lower: [-0.5, -0.5, -0.5], upper: [4.5, 2.5, 2.0], cell_size: 0.1}
+time: {end: 0.01, step: 0.01}
+output: {enabled: false}
+gravity: [0, 0, -9.81]
+materials: [{name: m, model: linear_elastic, density: 2000, youngs_modulus: 1.0e6, poisson_ratio: 0.3}]
+bodies: [{name: slide, material: m, particles: mass3d.csv}]
+obstacles: [{name: ground, type: terrain, file: lower.asc, friction: 0.5}]
+EOF
+"$talus" check mass3d.yaml > check3d.log 2>&1 || { echo "FAIL: talus check of the 3D particle file"; cat check3d.log; exit 1; }
 
 # A non-physical value: exit code 2, the key and line named, no output directory.
 sed -e 's/poisson_ratio: 0.3/poisson_ratio: 0.7/' -e "s#directory: .*#directory: $work/bad_out#" \
