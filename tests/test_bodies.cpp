@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -88,9 +89,17 @@ std::filesystem::path shared_temp_dir() {
   return name;
 }
 
+void remove_on_rank0(const std::filesystem::path& dir) {
+  int rank;
+  MPI_Comm_rank(PETSC_COMM_WORLD, &rank);
+  MPI_Barrier(PETSC_COMM_WORLD);  // every rank is done reading
+  if (rank == 0) std::filesystem::remove_all(dir);
+}
+
 void write_on_rank0(const std::filesystem::path& path, const std::string& text) {
   int rank;
   MPI_Comm_rank(PETSC_COMM_WORLD, &rank);
+  MPI_Barrier(PETSC_COMM_WORLD);  // every rank has read the file's previous text
   if (rank == 0) {
     std::ofstream out(path);
     out << text;
@@ -226,6 +235,129 @@ TEST_CASE("a polyhedron body is filled with exactly the lattice points inside it
   }
 }
 
+namespace {
+
+// The cube's triangles as an STL file, in millimetres, binary (float32) or ASCII.
+std::string cube_stl(const Cube& cube, bool binary, double unit) {
+  std::ostringstream os;
+  const auto t = cube.triangles();
+  if (binary) {
+    std::string header(80, ' ');
+    header.replace(0, 14, "talus cube mm ");
+    os << header;
+    const std::uint32_t count = static_cast<std::uint32_t>(t.size());
+    os.write(reinterpret_cast<const char*>(&count), 4);
+    for (const auto& tri : t) {
+      float record[12] = {0, 0, 0};  // the normal is ignored: left zero
+      for (int k = 0; k < 3; ++k)
+        for (int a = 0; a < 3; ++a) record[3 + 3 * k + a] = static_cast<float>(cube.vertices[tri[k]][a] / unit);
+      os.write(reinterpret_cast<const char*>(record), sizeof record);
+      const std::uint16_t attribute = 0;
+      os.write(reinterpret_cast<const char*>(&attribute), 2);
+    }
+  } else {
+    os << std::setprecision(17) << "solid cube\n";
+    for (const auto& tri : t) {
+      os << "  facet normal 0 0 0\n    outer loop\n";
+      for (int k = 0; k < 3; ++k)
+        os << "      vertex " << cube.vertices[tri[k]][0] / unit << " " << cube.vertices[tri[k]][1] / unit << " "
+           << cube.vertices[tri[k]][2] / unit << "\n";
+      os << "    endloop\n  endfacet\n";
+    }
+    os << "endsolid cube\n";
+  }
+  return os.str();
+}
+
+}  // namespace
+
+TEST_CASE("a polyhedron read from an STL file, binary or ASCII, in millimetres", "[bodies][mpi]") {
+  // The rotated cube written in mm, its corners welded back from the 12
+  // triangles' 36 corners; scale 0.001 and a translation of 0.1 m along x.
+  // The particles must be those of the same cube given in the case file.
+  const Cube cube(0.5, Vector<3>(0.9, 0.5, 0.5));
+  const Cube shifted(0.5, Vector<3>(1.0, 0.5, 0.5));
+  const std::filesystem::path dir = shared_temp_dir();
+  write_on_rank0(dir / "cube_ascii.stl", cube_stl(cube, false, 1e-3));
+  write_on_rank0(dir / "cube_binary.stl", cube_stl(cube, true, 1e-3));
+  const CaseConfig reference =
+      testing::case_from_yaml(header_3d + "bodies: [{name: rock, material: m, polyhedron: " + shifted.yaml() + "}]\n");
+  Simulation<3> a(reference, PETSC_COMM_WORLD);
+  const std::vector<double> xa = testing::gather_by_id(a.particles(), field::position, 3);
+  for (const char* name : {"cube_ascii.stl", "cube_binary.stl"}) {
+    CAPTURE(name);
+    const CaseConfig config = testing::case_from_yaml(header_3d + "bodies: [{name: rock, material: m, polyhedron: {file: " +
+                                                      (dir / name).string() + ", scale: 0.001, translate: [0.1, 0, 0]}}]\n");
+    const BodyConfig& body = config.bodies[0];
+    CHECK(body.polyhedron_vertices.size() == 8);  // 36 corners welded to the cube's 8
+    CHECK(body.polyhedron_triangles.size() == 12);
+    // float32 in the binary file: 6e-8 relative per coordinate.
+    CHECK(enclosed_volume(body.polyhedron_vertices, body.polyhedron_triangles) == Approx(0.125).epsilon(1e-6));
+    Simulation<3> b(config, PETSC_COMM_WORLD);
+    const std::vector<double> xb = testing::gather_by_id(b.particles(), field::position, 3);
+    CHECK(xa == xb);
+  }
+
+  // Broken STL files name the file, the line (ASCII) or the facet, and the problem.
+  const std::string good = cube_stl(cube, false, 1e-3);
+  const auto without_facet = [&](int k) {  // the ASCII file without its k-th facet (7 lines each)
+    std::istringstream in(good);
+    std::string line, out;
+    for (int number = 0; std::getline(in, line); ++number)
+      if (number < 1 + 7 * k || number >= 1 + 7 * (k + 1)) out += line + "\n";
+    return out;
+  };
+  std::string binary = cube_stl(cube, true, 1e-3);
+  const std::vector<std::pair<std::string, std::string>> broken = {
+      {"", "is neither a binary STL"},
+      {"solid empty\nendsolid empty\n", "is an ASCII STL without facets"},
+      {binary.substr(0, binary.size() - 1), "is neither a binary STL"},
+      {without_facet(3), "belongs to no other face (the surface must be closed)"},
+      {"solid x\n facet normal 0 0 1\n  outer loop\n   vertex 1 2\n", "x.stl:4: 'vertex' needs 3 coordinates, found 2"},
+      {"solid x\n facet normal 0 0 1\n  outer loop\n   vertex 1 2 z\n", "x.stl:4: coordinate 'z' is not a number"},
+      {"solid x\n facet normal 0 0 1\n  outer loop\n   vertex 1 2 3\n   vertex 1 2 4\n  endloop\n",
+       "x.stl:6: the facet has 2 vertices (STL facets are triangles)"},
+      {"solid x\n facet normal 0 0 1\n  outer loop\n   vertex 1 2 3\n", "x.stl:3: the loop that starts here has no 'endloop'"},
+      {"solid x\n facet normal 0 0 1\n  inner loop\n", "x.stl:3: unexpected 'inner'"},
+  };
+  for (const auto& [text, message] : broken) {
+    write_on_rank0(dir / "x.stl", text);
+    CAPTURE(text);
+    CHECK_THROWS_WITH(testing::case_from_yaml(header_3d + "bodies: [{name: rock, material: m, polyhedron: {file: " +
+                                              (dir / "x.stl").string() + ", scale: 0.001}}]\n"),
+                      Catch::Contains(message));
+  }
+  // A facet turned over (two of its vertex lines swapped): it then runs along
+  // each of its edges in the same direction as its neighbour.
+  {
+    std::istringstream in(good);
+    std::vector<std::string> lines;
+    for (std::string line; std::getline(in, line);) lines.push_back(line);
+    std::swap(lines[1 + 7 * 5 + 2], lines[1 + 7 * 5 + 3]);  // facet 6: "facet", "outer loop", then its vertices
+    std::string flipped;
+    for (const auto& line : lines) flipped += line + "\n";
+    write_on_rank0(dir / "x.stl", flipped);
+    CHECK_THROWS_WITH(testing::case_from_yaml(header_3d + "bodies: [{name: rock, material: m, polyhedron: {file: " +
+                                              (dir / "x.stl").string() + ", scale: 0.001}}]\n"),
+                      Catch::Contains("(order every face the same way around its outward normal)"));
+  }
+  // Units forgotten: the cube in mm lies far outside the grid box.
+  write_on_rank0(dir / "x.stl", good);
+  CHECK_THROWS_WITH(testing::case_from_yaml(header_3d + "bodies: [{name: rock, material: m, polyhedron: {file: " +
+                                            (dir / "x.stl").string() + "}}]\n"),
+                    Catch::Contains("lies outside the grid box"));
+  CHECK_THROWS_WITH(testing::case_from_yaml(header_3d + "bodies: [{name: rock, material: m, polyhedron: {file: " +
+                                            (dir / "x.stl").string() + ", faces: [[0, 1, 2]]}}]\n"),
+                    Catch::Contains("polyhedron.faces: give either file or vertices and faces, not both"));
+  CHECK_THROWS_WITH(testing::case_from_yaml(header_3d + "bodies: [{name: rock, material: m, polyhedron: " +
+                                            shifted.yaml().substr(0, shifted.yaml().size() - 1) + ", scale: 2}}]\n"),
+                    Catch::Contains("polyhedron.scale: is only used with file"));
+  CHECK_THROWS_WITH(testing::case_from_yaml(header_3d + "bodies: [{name: rock, material: m, polyhedron: {file: " +
+                                            (dir / "x.stl").string() + ", scale: -1}}]\n"),
+                    Catch::Contains("polyhedron.scale = -1: must be > 0"));
+  remove_on_rank0(dir);
+}
+
 TEST_CASE("a non-convex polyhedron equals the extruded polygon of the same solid", "[bodies][mpi]") {
   // An L-shaped section in (x, z), extruded over y in [0.1, 0.4]: once as
   // `polygon` + `extrusion` (crossing number in the section) and once as a
@@ -326,7 +458,7 @@ TEST_CASE("particles read from a file run exactly like the lattice body they wer
   double moved = 0.0;
   for (std::size_t k = 0; k < x5.size(); ++k) moved = std::max(moved, std::abs(x5[k] - x0[k]));
   CHECK(moved > 0.02);  // 5 steps at 0.5 m/s along the frictionless floor: 0.025 m
-  if (testing::comm_size(PETSC_COMM_WORLD) == 1) std::filesystem::remove_all(dir);
+  remove_on_rank0(dir);
 }
 
 TEST_CASE("a particle file: columns in any order, comments, volumes, velocities, ids in file order", "[bodies]") {
@@ -354,7 +486,7 @@ TEST_CASE("a particle file: columns in any order, comments, volumes, velocities,
     CHECK(v[3 * p] == 1.0);
     CHECK(v[3 * p + 2] == 3.0);
   }
-  std::filesystem::remove_all(dir);
+  remove_on_rank0(dir);
 }
 
 TEST_CASE("malformed particle files and polyhedra name the case line, the file line and the problem", "[bodies]") {
@@ -448,5 +580,5 @@ TEST_CASE("malformed particle files and polyhedra name the case line, the file l
                         "materials: [{name: m, model: linear_elastic, density: 2000, youngs_modulus: 1.0e6, poisson_ratio: 0.3}]\n"
                         "bodies: [{name: t, material: m, polyhedron: {vertices: [[0, 0]], faces: [[0]]}}]\n"),
                     Catch::Contains("bodies[0].polyhedron: is only used in 3D"));
-  std::filesystem::remove_all(dir);
+  remove_on_rank0(dir);
 }

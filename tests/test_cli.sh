@@ -22,6 +22,12 @@ grep -v '^#' slide.csv > slide.rows
 grep -v '^#' "$repo/inputs/particles/slide_mass_2d.csv" > committed.rows
 cmp -s slide.rows committed.rows || { echo "FAIL: fill_between_surfaces.py does not reproduce slide_mass_2d.csv"; exit 1; }
 grep -q "800 particles, area 2 m^2" fill.log || { echo "FAIL: fill_between_surfaces.py: $(cat fill.log)"; exit 1; }
+# The same for the 3D particle file of inputs/landslide_3d_from_dem.yaml.
+/usr/bin/python3 "$repo/scripts/fill_between_surfaces.py" "$repo/inputs/terrain/channel_3d.asc" \
+  "$repo/inputs/terrain/channel_3d_slide_top.asc" --spacing 0.075 --out slide3d.csv > fill.log
+grep -v '^#' slide3d.csv > slide.rows
+grep -v '^#' "$repo/inputs/particles/channel_slide_3d.csv" > committed.rows
+cmp -s slide.rows committed.rows || { echo "FAIL: fill_between_surfaces.py does not reproduce channel_slide_3d.csv"; exit 1; }
 
 # 3D: a bumpy sliding surface (an ESRI height map, 0.5 m cells) and the same
 # surface raised by 0.5 m at 15 interior nodes. Both are split into the same

@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "talus/io/particle_file.hpp"
+#include "talus/io/stl_file.hpp"
 #include "talus/particles/body_region.hpp"
 
 namespace talus {
@@ -94,74 +95,106 @@ void parse_polygon(YamlSection& b, const CaseConfig& c, BodyConfig& bc) {
 }
 
 // A closed polyhedron: vertices and faces (each a list of vertex indices, all
-// faces ordered the same way around their outward normals). Each face is split
-// into a fan of triangles from its first vertex; "inside" is the winding
-// number, so faces need not be convex or exactly planar.
+// faces ordered the same way around their outward normals), or the triangles
+// of an STL file (scaled, then translated). Each face is split into a fan of
+// triangles from its first vertex; "inside" is the winding number, so faces
+// need not be convex or exactly planar.
 void parse_polyhedron(YamlSection& b, const CaseConfig& c, BodyConfig& bc) {
   YamlSection p = b.section("polyhedron");
   if (c.dim != 3) b.fail("polyhedron", "is only used in 3D (in 2D a body is a box or a polygon)");
-  const auto vertices = p.points("vertices", 3);
-  if (vertices.size() < 4) p.fail("vertices", "needs at least 4 vertices");
+  const bool from_file = p.has("file");
+  std::vector<std::vector<double>> vertices;
+  std::vector<std::vector<int>> faces;
+  std::vector<int> facet;  // STL: each face's facet number in the file
+  std::string file;
+  if (from_file) {
+    for (const char* key : {"vertices", "faces"})
+      if (p.has(key)) p.fail(key, "give either file or vertices and faces, not both");
+    file = p.text("file");
+    std::ifstream in = open_case_file(p, "file", file, "STL file", c.source_file);
+    TriangleMesh mesh;
+    try {
+      mesh = read_stl(in);
+    } catch (const FileLineError& e) {
+      p.fail_value("file", file, file + (e.line > 0 ? ":" + std::to_string(e.line) : "") + ": " + e.message);
+    }
+    const double scale = p.positive("scale", p.real("scale", 1.0));
+    const std::vector<double> shift = p.has("translate") ? p.reals("translate", 3) : std::vector<double>(3, 0.0);
+    for (const auto& v : mesh.vertices) vertices.push_back({scale * v[0] + shift[0], scale * v[1] + shift[1], scale * v[2] + shift[2]});
+    for (const auto& t : mesh.triangles) faces.push_back({t[0], t[1], t[2]});
+    facet = mesh.facet;
+  } else {
+    for (const char* key : {"scale", "translate"})
+      if (p.has(key)) p.fail(key, "is only used with file (an STL file)");
+    vertices = p.points("vertices", 3);
+    faces = p.index_lists("faces");
+  }
+  // Messages name the YAML's vertex and face numbers, or an STL's coordinates and facets.
+  const auto fail = [&](const char* key, const std::string& message) {
+    if (from_file) p.fail_value("file", file, message);
+    p.fail(key, message);
+  };
+  const auto vertex_name = [&](int i) {
+    if (!from_file) return "vertex " + std::to_string(i);
+    return "(" + number_text(vertices[i][0]) + ", " + number_text(vertices[i][1]) + ", " + number_text(vertices[i][2]) + ")";
+  };
+  const auto face_name = [&](std::size_t f) {
+    return from_file ? "facet " + std::to_string(facet[f]) : "face " + std::to_string(f);
+  };
+  if (vertices.size() < 4) fail("vertices", "needs at least 4 vertices");
   bc.box_lower = vertices[0];
   bc.box_upper = vertices[0];
   for (std::size_t i = 0; i < vertices.size(); ++i) {
     for (int a = 0; a < 3; ++a) {
       if (vertices[i][a] < c.grid.lower[a] || vertices[i][a] > c.grid.upper[a])
-        p.fail("vertices", "vertex " + std::to_string(i) + " lies outside the grid box");
+        fail("vertices", vertex_name(static_cast<int>(i)) + " lies outside the grid box");
       bc.box_lower[a] = std::min(bc.box_lower[a], vertices[i][a]);
       bc.box_upper[a] = std::max(bc.box_upper[a], vertices[i][a]);
     }
     bc.polyhedron_vertices.push_back({vertices[i][0], vertices[i][1], vertices[i][2]});
   }
-  const auto faces = p.index_lists("faces");
-  if (faces.size() < 4) p.fail("faces", "needs at least 4 faces (a closed surface)");
+  if (faces.size() < 4) fail("faces", "needs at least 4 faces (a closed surface)");
   const int n = static_cast<int>(vertices.size());
   std::map<std::pair<int, int>, std::size_t> edge_face;  // directed edge -> its face
   for (std::size_t f = 0; f < faces.size(); ++f) {
     const auto& face = faces[f];
-    const std::string which = "face " + std::to_string(f);
-    if (face.size() < 3) p.fail("faces", which + " has fewer than 3 vertices");
+    if (face.size() < 3) fail("faces", face_name(f) + " has fewer than 3 vertices");
     for (std::size_t k = 0; k < face.size(); ++k) {
       if (face[k] < 0 || face[k] >= n)
-        p.fail("faces", which + " names vertex " + std::to_string(face[k]) + "; the vertices are 0.." +
-                            std::to_string(n - 1));
+        fail("faces", face_name(f) + " names vertex " + std::to_string(face[k]) + "; the vertices are 0.." +
+                          std::to_string(n - 1));
       if (std::count(face.begin(), face.end(), face[k]) > 1)
-        p.fail("faces", which + " names vertex " + std::to_string(face[k]) + " twice");
+        fail("faces", face_name(f) + " names vertex " + std::to_string(face[k]) + " twice");
     }
     for (std::size_t k = 0; k < face.size(); ++k) {
       const std::pair<int, int> edge{face[k], face[(k + 1) % face.size()]};
       const auto [at, fresh] = edge_face.emplace(edge, f);
-      if (!fresh)
-        p.fail("faces", "faces " + std::to_string(at->second) + " and " + std::to_string(f) + " both run from vertex " +
-                            std::to_string(edge.first) + " to " + std::to_string(edge.second) +
-                            " (order every face the same way around its outward normal)");
+      if (!fresh) {
+        const std::string faces_named = from_file ? "facets " + std::to_string(facet[at->second]) + " and " + std::to_string(facet[f])
+                                                  : "faces " + std::to_string(at->second) + " and " + std::to_string(f);
+        fail("faces", faces_named + " both run from " + vertex_name(edge.first) + " to " +
+                          (from_file ? vertex_name(edge.second) : std::to_string(edge.second)) +
+                          " (order every face the same way around its outward normal)");
+      }
     }
     for (std::size_t k = 1; k + 1 < face.size(); ++k) bc.polyhedron_triangles.push_back({face[0], face[k], face[k + 1]});
   }
   for (const auto& [edge, f] : edge_face)
     if (!edge_face.count({edge.second, edge.first}))
-      p.fail("faces", "the edge from vertex " + std::to_string(edge.first) + " to " + std::to_string(edge.second) +
-                          " of face " + std::to_string(f) + " belongs to no other face (the surface must be closed)");
+      fail("faces", "the edge from " + vertex_name(edge.first) + " to " +
+                        (from_file ? vertex_name(edge.second) : std::to_string(edge.second)) + " of " + face_name(f) +
+                        " belongs to no other face (the surface must be closed)");
   // Against the cube of the bounding box's diagonal: a flat box has no volume.
   const double diagonal = std::hypot(bc.box_upper[0] - bc.box_lower[0], bc.box_upper[1] - bc.box_lower[1],
                                      bc.box_upper[2] - bc.box_lower[2]);
   if (!(std::abs(enclosed_volume(bc.polyhedron_vertices, bc.polyhedron_triangles)) > 1e-12 * std::pow(diagonal, 3)))
-    p.fail("faces", "enclose no volume");
+    fail("faces", "enclose no volume");
   p.finish();
 }
 
 void parse_particle_file(YamlSection& b, const CaseConfig& c, BodyConfig& bc) {
   bc.particle_file = b.text("particles");
-  // Relative to the case file's directory (so a case and its files move together).
-  std::filesystem::path path(bc.particle_file);
-  if (path.is_relative()) path = std::filesystem::path(c.source_file).parent_path() / path;
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec))
-    b.fail_value("particles", bc.particle_file, "is a directory, not a particle file (" + path.string() + ")");
-  std::ifstream in(path);
-  if (!in)
-    b.fail_value("particles", bc.particle_file,
-                 "cannot open the particle file " + path.string() + " (relative paths start at the case file's directory)");
+  std::ifstream in = open_case_file(b, "particles", bc.particle_file, "particle file", c.source_file);
   const auto fail_at = [&](int line, const std::string& message) {
     b.fail_value("particles", bc.particle_file,
                  bc.particle_file + (line > 0 ? ":" + std::to_string(line) : "") + ": " + message);

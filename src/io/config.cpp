@@ -165,16 +165,7 @@ ObstacleConfig parse_obstacle(YamlSection& o, const CaseConfig& c) {
   } else {
     ob.shape = ObstacleShape::terrain;
     ob.file = o.text("file");
-    // Relative to the case file's directory (so a case and its terrain move together).
-    std::filesystem::path path(ob.file);
-    if (path.is_relative()) path = std::filesystem::path(c.source_file).parent_path() / path;
-    std::error_code ec;
-    if (std::filesystem::is_directory(path, ec))
-      o.fail_value("file", ob.file, "is a directory, not a terrain file (" + path.string() + ")");
-    std::ifstream in(path);
-    if (!in)
-      o.fail_value("file", ob.file,
-                   "cannot open the terrain file " + path.string() + " (relative paths start at the case file's directory)");
+    std::ifstream in = open_case_file(o, "file", ob.file, "terrain file", c.source_file);
     std::vector<double> lo(c.dim), up(c.dim);
     try {
       if (c.dim == 2) {

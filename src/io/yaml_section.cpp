@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <filesystem>
 #include <set>
+#include <system_error>
 #include <sstream>
 
 namespace talus {
@@ -282,6 +284,20 @@ void YamlSection::finish() const {
     if (!best.empty()) msg += " (did you mean '" + best + "'?)";
     fail(key, msg);
   }
+}
+
+std::ifstream open_case_file(const YamlSection& section, const std::string& key, const std::string& name,
+                             const std::string& kind, const std::string& case_file) {
+  std::filesystem::path path(name);
+  if (path.is_relative()) path = std::filesystem::path(case_file).parent_path() / path;
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    section.fail_value(key, name, "is a directory, not a " + kind + " (" + path.string() + ")");
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+    section.fail_value(key, name,
+                       "cannot open the " + kind + " " + path.string() + " (relative paths start at the case file's directory)");
+  return in;
 }
 
 }  // namespace talus

@@ -6,6 +6,7 @@
 // key path and the offending value (docs/case_file.md).
 #include <yaml-cpp/yaml.h>
 
+#include <fstream>
 #include <set>
 #include <string>
 #include <vector>
@@ -17,6 +18,7 @@ namespace talus {
 // A computed number in a message: the shortest text that reads back to the
 // same double ("0.5", "1e-12", "2"), not std::to_string's six decimals.
 std::string number_text(double value);
+
 
 class YamlSection {
  public:
@@ -70,5 +72,12 @@ class YamlSection {
   std::string path_, file_;
   mutable std::set<std::string> read_;
 };
+
+// Opens the file `name` that `key` of `section` names (a terrain, particle or
+// STL file), relative to the case file's directory, so that a case and its
+// files move together; a directory or an unreadable file stops the run with
+// the key, the name and the full path.
+std::ifstream open_case_file(const YamlSection& section, const std::string& key, const std::string& name,
+                             const std::string& kind, const std::string& case_file);
 
 }  // namespace talus
