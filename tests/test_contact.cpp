@@ -230,12 +230,8 @@ void check_system_jacobian(bool slip_floor_and_wall) {
     }
   }
   const Grid<dim>& grid = sim.grid();
-  std::vector<Stencil<dim>> stencils;
-  compute_stencils(grid, particles, stencils);
-  GridFields<dim> fields;
-  particles_to_grid(grid, particles, stencils, TransferScheme::apic, fields);
-  ActiveSet<dim> active;
-  active.build(grid, fields, 1e-12, config.faces);
+  testing::GridStep<dim> step(grid, particles, config);
+  auto& [stencils, fields, active] = step;
   // An inclined plane through the body's lower part, moving, with restitution.
   ObstacleConfig plane;
   plane.name = "incline";

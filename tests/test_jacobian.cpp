@@ -63,12 +63,8 @@ void check_jacobian(const std::string& shape, double theta, const std::string& m
     }
   }
   const Grid<dim>& grid = sim.grid();
-  std::vector<Stencil<dim>> stencils;
-  compute_stencils(grid, particles, stencils);
-  GridFields<dim> fields;
-  particles_to_grid(grid, particles, stencils, TransferScheme::apic, fields);
-  ActiveSet<dim> active;
-  active.build(grid, fields, 1e-12, config.faces);
+  testing::GridStep<dim> step(grid, particles, config);
+  auto& [stencils, fields, active] = step;
   std::vector<const Material*> materials{config.materials[0].law.get()};
   Vector<dim> g = Vector<dim>::Zero();
   g[dim - 1] = -9.81;

@@ -10,7 +10,9 @@
 
 #include "talus/io/config.hpp"
 #include "talus/particles/particles.hpp"
+#include "talus/solver/active_set.hpp"
 #include "talus/solver/momentum_system.hpp"
+#include "talus/transfer/transfer.hpp"
 
 namespace talus::testing {
 
@@ -52,6 +54,20 @@ std::vector<double> gather_by_id(Particles<dim>& particles, const char* name, in
     for (int b = 0; b < block; ++b) ordered[static_cast<std::size_t>(k) * block + b] = all[order[k] * block + b];
   return ordered;
 }
+
+// The grid side of a step, as Simulation::advance builds it: the particles'
+// stencils, P2G (APIC) and the active points.
+template <int dim>
+struct GridStep {
+  std::vector<Stencil<dim>> stencils;
+  GridFields<dim> fields;
+  ActiveSet<dim> active;
+  GridStep(const Grid<dim>& grid, Particles<dim>& particles, const CaseConfig& config) {
+    compute_stencils(grid, particles, stencils);
+    particles_to_grid(grid, particles, stencils, TransferScheme::apic, fields);
+    active.build(grid, fields, 1e-12, config.faces);
+  }
+};
 
 // ||J_BAIJ - J_AIJ||_F / ||J_AIJ||_F at v: the Jacobian assembled into a
 // block matrix (what the direct solvers get, src/solver/newton.cpp) against
