@@ -83,7 +83,8 @@ Simulation<dim>::Simulation(const CaseConfig& config, MPI_Comm comm) : config_(c
   MPI_Allreduce(&local_max, &max_mass, 1, MPI_DOUBLE, MPI_MAX, comm);
   mass_threshold_ = config.solver.active_mass_ratio * max_mass;
   apply_case_petsc_options(config);
-  newton_ = std::make_unique<NewtonSolver<dim>>(comm, config.solver.direct_solver_limit);
+  newton_ = std::make_unique<NewtonSolver<dim>>(comm, config.solver.direct_solver_limit,
+                                                config.solver.balance_tolerance);
 }
 
 template <int dim>
@@ -404,6 +405,8 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
     summary.transfer_seconds += r.transfer_seconds;
     summary.solve_seconds += r.solve_seconds;
     summary.contact_seconds += r.contact_seconds;
+    summary.structure_builds += r.newton.structure_built;
+    summary.direct_fallbacks += r.newton.direct_fallback;
     if (!r.converged) {
       ++summary.cutbacks;
       const double h = control.failed();
@@ -418,6 +421,7 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
     ++summary.steps;
     summary.contact_points += r.contact_points;
     summary.max_step_newton_iterations = std::max<long>(summary.max_step_newton_iterations, r.newton.iterations);
+    summary.max_unbalance = std::max(summary.max_unbalance, r.newton.unbalance);
     control.succeeded();
     if (forces) forces->append(time_, force_row());
     const bool due = time_ >= next_output - eps || time_ >= tc.end - eps;
@@ -430,7 +434,8 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
       const double eta = elapsed / (time_ - start_time) * (tc.end - time_);
       *progress << "step " << std::setw(6) << summary.steps << "  t " << std::scientific << std::setprecision(4)
                 << time_ << "  h " << std::setprecision(3) << r.h << std::defaultfloat << "  newton "
-                << r.newton.iterations << "  ksp " << r.newton.linear_iterations << "  active " << r.active_points
+                << r.newton.iterations << "  ksp " << r.newton.linear_iterations << "  unbalance " << std::scientific
+                << std::setprecision(1) << r.newton.unbalance << std::defaultfloat << "  active " << r.active_points
                 << "  ETA " << clock_text(eta) << (due && vtk ? "  [output]" : "") << "\n";
       progress->flush();
     }

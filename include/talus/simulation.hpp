@@ -31,6 +31,9 @@ struct RunSummary {
   double wall_seconds = 0, transfer_seconds = 0, solve_seconds = 0;
   double contact_seconds = 0;     // part of solve_seconds: candidates + contact rows
   long contact_points = 0;        // summed over the accepted steps
+  double max_unbalance = 0;       // largest U of an accepted step (docs/solver.md#convergence)
+  long structure_builds = 0;      // steps whose matrix and preconditioner structure was built anew
+  long direct_fallbacks = 0;      // steps solved again by LU after a failed linear solve
 };
 
 template <int dim>
@@ -57,6 +60,7 @@ class Simulation {
 
   // Introspection of the last step's system (tests and benchmarks).
   PetscInt last_system_size() const { return last_system_size_; }
+  NewtonSolver<dim>& newton() { return *newton_; }
 
   // The rigid obstacles: the case's `obstacles`, then one half-plane per
   // frictional domain face (named x_min, ..., z_max).

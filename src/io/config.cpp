@@ -306,6 +306,9 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
     c.solver.direct_solver_limit = s.integer("direct_solver_limit", 5000);
     if (c.solver.direct_solver_limit < 0)
       s.fail_value("direct_solver_limit", "must be >= 0");
+    c.solver.balance_tolerance = s.real("balance_tolerance", 1e-8);
+    if (!(c.solver.balance_tolerance >= 1e-15 && c.solver.balance_tolerance <= 1e-2))
+      s.fail_value("balance_tolerance", "must be in [1e-15, 1e-2]");
     for (auto& [k, v] : s.free_map("petsc_options")) {
       std::string key = k;
       if (!key.empty() && key[0] == '-') key.erase(0, 1);

@@ -1,5 +1,6 @@
 #include "talus/solver/newton.hpp"
 
+#include <cmath>
 #include <cstring>
 
 namespace talus {
@@ -16,18 +17,72 @@ PetscErrorCode form_jacobian(SNES, Vec v, Mat J, Mat, void* ctx) {
   return petsc_callback([&] { static_cast<MomentumSystem<dim>*>(ctx)->jacobian(v, J); });
 }
 
+// The physical test (newton.hpp): U = ||F||_1 / S <= tolerance. F is in
+// impulse units on every row (momentum rows, m_i v_i = 0 on constrained
+// components, the natural map on contact rows), so ||F||_1 is the total
+// unbalanced impulse of the step. Divergence: NaN, or the iteration limit.
+template <int dim>
+PetscErrorCode physical_convergence(SNES snes, PetscInt it, PetscReal, PetscReal, PetscReal fnorm,
+                                    SNESConvergedReason* reason, void* ctx) {
+  auto* scale = static_cast<typename NewtonSolver<dim>::Scale*>(ctx);
+  *reason = SNES_CONVERGED_ITERATING;
+  if (std::isnan(fnorm) || std::isinf(fnorm)) {
+    *reason = SNES_DIVERGED_FNORM_NAN;
+    return 0;
+  }
+  Vec F;
+  PetscErrorCode ierr = SNESGetFunction(snes, &F, nullptr, nullptr);
+  if (ierr) return ierr;
+  PetscReal total = 0.0;
+  ierr = VecNorm(F, NORM_1, &total);
+  if (ierr) return ierr;
+  scale->unbalance = total / scale->impulse;
+  PetscInt max_it = 0;
+  ierr = SNESGetTolerances(snes, nullptr, nullptr, nullptr, &max_it, nullptr);
+  if (ierr) return ierr;
+  if (scale->unbalance <= scale->tolerance)
+    *reason = SNES_CONVERGED_FNORM_ABS;
+  else if (it >= max_it)
+    *reason = SNES_DIVERGED_MAX_IT;
+  return 0;
+}
+
 }  // namespace
 
 template <int dim>
-NewtonSolver<dim>::NewtonSolver(MPI_Comm comm, PetscInt direct_limit) : comm_(comm), direct_limit_(direct_limit) {}
-
-template <int dim>
-NewtonSolver<dim>::~NewtonSolver() {
-  SNESDestroy(&snes_);
+NewtonSolver<dim>::NewtonSolver(MPI_Comm comm, PetscInt direct_limit, double balance_tolerance)
+    : comm_(comm), direct_limit_(direct_limit) {
+  scale_.tolerance = balance_tolerance;
 }
 
 template <int dim>
-void NewtonSolver<dim>::configure(double absolute_tolerance, PetscInt unknowns) {
+NewtonSolver<dim>::~NewtonSolver() {
+  destroy();
+}
+
+template <int dim>
+void NewtonSolver<dim>::destroy() {
+  SNESDestroy(&snes_);
+  MatDestroy(&J_);
+  VecDestroy(&F_);
+  unknown_points_.clear();
+  unknown_count_ = -1;
+}
+
+template <int dim>
+void NewtonSolver<dim>::configure_direct(KSP ksp) {
+  PC pc;
+  TALUS_PETSC(KSPGetPC(ksp, &pc));
+  TALUS_PETSC(KSPSetType(ksp, KSPPREONLY));
+  TALUS_PETSC(PCSetType(pc, PCLU));
+  // PETSc's own LU is the fastest for small serial systems; MUMPS factors in parallel.
+  int size = 1;
+  MPI_Comm_size(comm_, &size);
+  TALUS_PETSC(PCFactorSetMatSolverType(pc, size > 1 ? MATSOLVERMUMPS : MATSOLVERPETSC));
+}
+
+template <int dim>
+void NewtonSolver<dim>::configure(PetscInt unknowns) {
   // Defaults are set on the objects, then SNESSetFromOptions lets the options
   // database (command line, case file) override any of them.
   TALUS_PETSC(SNESSetOptionsPrefix(snes_, "talus_"));
@@ -35,27 +90,26 @@ void NewtonSolver<dim>::configure(double absolute_tolerance, PetscInt unknowns) 
   SNESLineSearch line_search;
   TALUS_PETSC(SNESGetLineSearch(snes_, &line_search));
   TALUS_PETSC(SNESLineSearchSetType(line_search, SNESLINESEARCHBASIC));
-  TALUS_PETSC(SNESSetTolerances(snes_, absolute_tolerance, 1e-10, 0.0, 25, PETSC_DEFAULT));
+  // Tolerances other than max_it are not used: the physical test decides.
+  TALUS_PETSC(SNESSetTolerances(snes_, 0.0, 0.0, 0.0, 25, PETSC_DEFAULT));
   KSP ksp;
   PC pc;
   TALUS_PETSC(SNESGetKSP(snes_, &ksp));
   TALUS_PETSC(KSPGetPC(ksp, &pc));
   if (unknowns <= direct_limit_) {
-    TALUS_PETSC(KSPSetType(ksp, KSPPREONLY));
-    TALUS_PETSC(PCSetType(pc, PCLU));
-    // PETSc's own LU is the fastest for small serial systems; MUMPS factors in parallel.
-    int size = 1;
-    MPI_Comm_size(comm_, &size);
-    TALUS_PETSC(PCFactorSetMatSolverType(pc, size > 1 ? MATSOLVERMUMPS : MATSOLVERPETSC));
+    configure_direct(ksp);
   } else {
     // Large systems: GMRES (the Jacobian is non-symmetric) with algebraic
-    // multigrid; the linear tolerance sits below Newton's so that a linear
-    // problem still converges in one Newton iteration.
+    // multigrid, preconditioned on the right so that the Krylov residual is
+    // the true one.
     TALUS_PETSC(KSPSetType(ksp, KSPGMRES));
+    TALUS_PETSC(KSPSetPCSide(ksp, PC_RIGHT));
     TALUS_PETSC(KSPSetTolerances(ksp, 1e-11, PETSC_DEFAULT, PETSC_DEFAULT, 500));
     TALUS_PETSC(PCSetType(pc, PCGAMG));
   }
   TALUS_PETSC(SNESSetFromOptions(snes_));
+  // After the options: nobody replaces the physical test.
+  TALUS_PETSC(SNESSetConvergenceTest(snes_, physical_convergence<dim>, &scale_, nullptr));
 }
 
 // Block AIJ (BAIJ, blocks of dim x dim) for a direct solve by PETSc's own LU
@@ -81,23 +135,47 @@ MatType NewtonSolver<dim>::matrix_type() const {
 }
 
 template <int dim>
-NewtonReport NewtonSolver<dim>::solve(MomentumSystem<dim>& system) {
+bool NewtonSolver<dim>::same_unknowns(const MomentumSystem<dim>& system) const {
+  // The unknowns, their numbering, their constraints and the sparsity pattern
+  // are functions of the active points alone (the pattern couples every pair
+  // of active points within the shape functions' reach), so an identical
+  // active set on every rank means an identical system structure.
+  int same = snes_ && reuse_ && !forced_direct_ && unknown_count_ == system.active().global_count() &&
+             unknown_points_ == system.active().owned_points();
+  int all = 0;
+  MPI_Allreduce(&same, &all, 1, MPI_INT, MPI_MIN, comm_);
+  return all == 1;
+}
+
+template <int dim>
+void NewtonSolver<dim>::build(MomentumSystem<dim>& system, PetscInt unknowns, bool direct) {
+  destroy();
+  ++builds_;
+  // A fresh SNES (SNESReset leaves stale sizes inside some preconditioners,
+  // e.g. GAMG's coarse solver).
+  TALUS_PETSC(SNESCreate(comm_, &snes_));
+  configure(unknowns);
+  forced_direct_ = direct;
+  if (direct) {
+    KSP ksp;
+    TALUS_PETSC(SNESGetKSP(snes_, &ksp));
+    configure_direct(ksp);
+  }
+  J_ = system.create_matrix(matrix_type());
+  Vec v = system.initial_guess();
+  TALUS_PETSC(VecDuplicate(v, &F_));
+  TALUS_PETSC(VecDestroy(&v));
+  unknown_points_ = system.active().owned_points();
+  unknown_count_ = system.active().global_count();
+}
+
+template <int dim>
+NewtonReport NewtonSolver<dim>::run_snes(MomentumSystem<dim>& system) {
   NewtonReport report;
   Vec v = system.initial_guess();
-  Vec F;
-  TALUS_PETSC(VecDuplicate(v, &F));
-  // The unknowns change every step, so each step gets a fresh SNES (SNESReset
-  // leaves stale sizes inside some preconditioners, e.g. GAMG's coarse solver).
-  TALUS_PETSC(SNESDestroy(&snes_));
-  TALUS_PETSC(SNESCreate(comm_, &snes_));
-  // Absolute tolerance in momentum units: 1e-12 of the step's momentum scale.
-  PetscInt unknowns;
-  TALUS_PETSC(VecGetSize(v, &unknowns));
-  configure(1e-12 * system.momentum_scale() + 1e-300, unknowns);
-  Mat J = system.create_matrix(matrix_type());
-  TALUS_PETSC(SNESSetFunction(snes_, F, form_residual<dim>, &system));
-  TALUS_PETSC(SNESSetJacobian(snes_, J, J, form_jacobian<dim>, &system));
-  std::vector<PetscReal> history(64);
+  TALUS_PETSC(SNESSetFunction(snes_, F_, form_residual<dim>, &system));
+  TALUS_PETSC(SNESSetJacobian(snes_, J_, J_, form_jacobian<dim>, &system));
+  std::vector<PetscReal> history(128);
   TALUS_PETSC(SNESSetConvergenceHistory(snes_, history.data(), nullptr, static_cast<PetscInt>(history.size()),
                                         PETSC_TRUE));
   TALUS_PETSC(SNESSolve(snes_, nullptr, v));
@@ -110,10 +188,41 @@ NewtonReport NewtonSolver<dim>::solve(MomentumSystem<dim>& system) {
   TALUS_PETSC(SNESGetLinearSolveIterations(snes_, &report.linear_iterations));
   report.converged = reason > 0;
   report.reason = SNESConvergedReasons[reason];
+  report.unbalance = scale_.unbalance;
   if (report.converged) system.finish(v);
-  TALUS_PETSC(MatDestroy(&J));
-  TALUS_PETSC(VecDestroy(&F));
   TALUS_PETSC(VecDestroy(&v));
+  return report;
+}
+
+template <int dim>
+NewtonReport NewtonSolver<dim>::solve(MomentumSystem<dim>& system) {
+  scale_.impulse = system.momentum_scale();
+  if (!(scale_.impulse > 0.0)) scale_.impulse = 1e-300;
+  scale_.unbalance = 0.0;
+  const PetscInt unknowns = system.active().global_count() * dim;
+  const bool built = !same_unknowns(system);
+  if (built) build(system, unknowns, false);
+  NewtonReport report = run_snes(system);
+  report.structure_built = built;
+  KSP ksp;
+  TALUS_PETSC(SNESGetKSP(snes_, &ksp));
+  PetscBool already_lu = PETSC_FALSE;
+  {
+    PC pc;
+    TALUS_PETSC(KSPGetPC(ksp, &pc));
+    TALUS_PETSC(PetscObjectTypeCompare(reinterpret_cast<PetscObject>(pc), PCLU, &already_lu));
+  }
+  if (!report.converged && report.reason == SNESConvergedReasons[SNES_DIVERGED_LINEAR_SOLVE] && !already_lu) {
+    // The preconditioner could not solve a Newton system: solve the step
+    // again with a direct factorization before giving up on this h.
+    build(system, unknowns, true);
+    NewtonReport retry = run_snes(system);
+    retry.iterations += report.iterations;
+    retry.linear_iterations += report.linear_iterations;
+    retry.structure_built = true;
+    retry.direct_fallback = true;
+    report = retry;
+  }
   return report;
 }
 

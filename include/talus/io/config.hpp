@@ -100,6 +100,7 @@ struct TransferConfig {
 struct SolverConfig {
   double active_mass_ratio = 1e-12;  // node active if m_i > ratio * max particle mass
   int direct_solver_limit = 5000;    // unknowns; above: GMRES + GAMG by default
+  double balance_tolerance = 1e-8;   // Newton stops when sum |F| <= tolerance * impulse scale
   std::vector<std::pair<std::string, std::string>> petsc_options;  // without the talus_ prefix
 };
 

@@ -54,6 +54,7 @@ class MomentumSystem {
   Mat create_matrix(MatType type = MATAIJ) const;
   Vec initial_guess() const;  // v^n + h g on free components, 0 on constrained ones
   double momentum_scale() const;  // sum_i m_i (|v_i^n| + h |g|), all ranks
+  const ActiveSet<dim>& active() const { return active_; }
 
   // After convergence: grid velocity v^{n+1} (ghosted, constraints applied),
   // start-of-step v^n (same layout) and particle stresses sigma^{n+1}.

@@ -1,6 +1,20 @@
 #pragma once
 // Newton's method for one implicit step, by PETSc SNES with the assembled
 // Jacobian and a KSP, all under the options prefix "talus_" (docs/solver.md).
+//
+// Convergence is judged in physical units (docs/solver.md#convergence): the
+// step is solved when the total unbalanced impulse is a small fraction of
+// the step's impulse scale,
+//
+//   U = sum_i |F_i|_1 / S <= balance_tolerance,   S = sum_i m_i (|v_i^n| + h |g|),
+//
+// never on the ratio to the first residual. A linear solve that did not
+// converge fails the Newton iteration; the step is then solved again with a
+// direct LU factorization before it counts as failed (cut-back).
+//
+// The SNES, the matrix, its preallocation and the KSP/PC (with a symbolic
+// factorization or an ILU/AMG structure) live across steps and are rebuilt
+// only when the unknowns (the active set) change.
 #include <petscsnes.h>
 
 #include <string>
@@ -15,15 +29,19 @@ struct NewtonReport {
   PetscInt iterations = 0;
   PetscInt linear_iterations = 0;
   std::string reason;
-  std::vector<double> residual_norms;  // ||F|| at every Newton iterate, the initial guess first
+  std::vector<double> residual_norms;  // ||F||_2 at every Newton iterate, the initial guess first
+  double unbalance = 0.0;              // U at the last iterate (docs/solver.md#convergence)
+  bool structure_built = false;        // matrix and KSP/PC built for this step (active set changed)
+  bool direct_fallback = false;        // a linear solve failed and the step was solved again by LU
 };
 
 template <int dim>
 class NewtonSolver {
  public:
   // direct_limit: largest number of unknowns solved by LU by default; larger
-  // systems default to GMRES + GAMG.
-  NewtonSolver(MPI_Comm comm, PetscInt direct_limit);
+  // systems default to the Krylov solver (docs/solver.md#defaults).
+  // balance_tolerance: the bound on U above.
+  NewtonSolver(MPI_Comm comm, PetscInt direct_limit, double balance_tolerance);
   ~NewtonSolver();
   NewtonSolver(const NewtonSolver&) = delete;
   NewtonSolver& operator=(const NewtonSolver&) = delete;
@@ -31,17 +49,39 @@ class NewtonSolver {
   // Solves F(v) = 0; on success the system holds v^{n+1} (MomentumSystem::finish).
   NewtonReport solve(MomentumSystem<dim>& system);
 
+  // false: build the SNES, matrix and preconditioner for every step (for tests
+  // comparing against reuse).
+  void set_structure_reuse(bool reuse) { reuse_ = reuse; }
+  long structure_builds() const { return builds_; }  // since construction
+
+  // The convergence test's view of the current step (used by the SNES callback).
+  struct Scale {
+    double impulse = 1.0;    // S
+    double tolerance = 0.0;  // balance_tolerance
+    double unbalance = 0.0;  // U of the last tested iterate
+  };
+
  private:
-  // Default solver (newtonls with full steps, rtol 1e-10, stol 0, 25
-  // iterations; direct LU, PETSc's on one rank, MUMPS on several, or
-  // GMRES + GAMG above direct_limit unknowns), then the options database
-  // under the prefix talus_.
-  void configure(double absolute_tolerance, PetscInt unknowns);
-  MatType matrix_type() const;  // for the preconditioner configure() set up
+  // Default solver, then the options database under the prefix talus_.
+  void configure(PetscInt unknowns);
+  void configure_direct(KSP ksp);  // preonly + LU (PETSc's LU in serial, MUMPS in parallel)
+  MatType matrix_type() const;     // for the preconditioner configure() set up
+  void build(MomentumSystem<dim>& system, PetscInt unknowns, bool direct);
+  void destroy();
+  bool same_unknowns(const MomentumSystem<dim>& system) const;
+  NewtonReport run_snes(MomentumSystem<dim>& system);
 
   MPI_Comm comm_;
   PetscInt direct_limit_;
+  bool reuse_ = true;
+  long builds_ = 0;
+  Scale scale_;
   SNES snes_ = nullptr;
+  Mat J_ = nullptr;
+  Vec F_ = nullptr;
+  bool forced_direct_ = false;          // the current structure was built for an LU retry
+  std::vector<int> unknown_points_;     // the active set the structure was built for (this rank)
+  PetscInt unknown_count_ = -1;         // global
 };
 
 }  // namespace talus
