@@ -422,7 +422,7 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
     summary.contact_points += r.contact_points;
     summary.max_step_newton_iterations = std::max<long>(summary.max_step_newton_iterations, r.newton.iterations);
     summary.max_unbalance = std::max(summary.max_unbalance, r.newton.unbalance);
-    control.succeeded();
+    control.succeeded(r.newton.iterations);
     if (forces) forces->append(time_, force_row());
     const bool due = time_ >= next_output - eps || time_ >= tc.end - eps;
     if (vtk && due) {
@@ -435,8 +435,8 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
       *progress << "step " << std::setw(6) << summary.steps << "  t " << std::scientific << std::setprecision(4)
                 << time_ << "  h " << std::setprecision(3) << r.h << std::defaultfloat << "  newton "
                 << r.newton.iterations << "  ksp " << r.newton.linear_iterations << "  unbalance " << std::scientific
-                << std::setprecision(1) << r.newton.unbalance << std::defaultfloat << "  active " << r.active_points
-                << "  ETA " << clock_text(eta) << (due && vtk ? "  [output]" : "") << "\n";
+                << std::setprecision(1) << r.newton.unbalance << std::defaultfloat << std::setprecision(6) << "  active "
+                << r.active_points << "  ETA " << clock_text(eta) << (due && vtk ? "  [output]" : "") << "\n";
       progress->flush();
     }
     // A signal on any rank stops every rank after this step, with a checkpoint.

@@ -26,13 +26,15 @@ void clear(const char* name) { TALUS_PETSC(PetscOptionsClearValue(nullptr, name)
 }  // namespace
 
 TEST_CASE("case-file PETSc options select the solver; the command line wins", "[solver]") {
-  // Default: direct LU, one linear iteration per Newton iteration.
-  const StepReport direct = one_step(base);
+  // Newton (the outer solver talus uses without NGMRES) defaults to direct
+  // LU below the direct limit: one linear iteration per Newton iteration.
+  const StepReport direct = one_step(base + "solver: {petsc_options: {snes_type: newtonls}}\n");
   REQUIRE(direct.converged);
   CHECK(direct.newton.linear_iterations == direct.newton.iterations);
 
   // Case file asks for CG + Jacobi: many Krylov iterations for one Newton step.
-  const std::string krylov = base + "solver: {petsc_options: {ksp_type: cg, pc_type: jacobi, ksp_rtol: 1e-12}}\n";
+  const std::string krylov =
+      base + "solver: {petsc_options: {snes_type: newtonls, ksp_type: cg, pc_type: jacobi, ksp_rtol: 1e-12}}\n";
   clear("-talus_ksp_type");
   clear("-talus_pc_type");
   const StepReport cg = one_step(krylov);
@@ -47,7 +49,7 @@ TEST_CASE("case-file PETSc options select the solver; the command line wins", "[
   const StepReport overridden = one_step(krylov);
   REQUIRE(overridden.converged);
   CHECK(overridden.newton.linear_iterations == overridden.newton.iterations);
-  for (const char* name : {"-talus_ksp_rtol", "-talus_ksp_type", "-talus_pc_type"}) clear(name);
+  for (const char* name : {"-talus_ksp_rtol", "-talus_ksp_type", "-talus_pc_type", "-talus_snes_type"}) clear(name);
 }
 
 TEST_CASE("a failed Newton solve leaves the particles untouched and the run stops after cut-backs", "[solver]") {
@@ -68,11 +70,12 @@ TEST_CASE("a failed Newton solve leaves the particles untouched and the run stop
 }
 
 TEST_CASE("systems above solver.direct_solver_limit default to GMRES + GAMG", "[solver]") {
-  const StepReport small = one_step(base);
-  const StepReport large = one_step(base + "solver: {direct_solver_limit: 10}\n");
+  const StepReport small = one_step(base + "solver: {petsc_options: {snes_type: newtonls}}\n");
+  const StepReport large = one_step(base + "solver: {direct_solver_limit: 10, petsc_options: {snes_type: newtonls}}\n");
   REQUIRE(small.converged);
   REQUIRE(large.converged);
   CHECK(small.newton.linear_iterations == small.newton.iterations);   // LU: one solve each
   CHECK(large.newton.linear_iterations > 3 * large.newton.iterations);  // Krylov iterations
   CHECK(large.newton.iterations <= 2);  // the linear tolerance is below Newton's
+  clear("-talus_snes_type");
 }

@@ -47,6 +47,17 @@ PetscErrorCode physical_convergence(SNES snes, PetscInt it, PetscReal, PetscReal
   return 0;
 }
 
+// After every linear solve: remember a KSP that did not converge. Not every
+// SNES type checks (PETSc 3.18's trust region uses the unconverged direction
+// as it is), so talus checks for all of them.
+PetscErrorCode record_linear_failure(KSP ksp, Vec, Vec, void* ctx) {
+  KSPConvergedReason reason;
+  PetscErrorCode ierr = KSPGetConvergedReason(ksp, &reason);
+  if (ierr) return ierr;
+  if (reason < 0) ++*static_cast<long*>(ctx);
+  return 0;
+}
+
 }  // namespace
 
 template <int dim>
@@ -85,13 +96,23 @@ template <int dim>
 void NewtonSolver<dim>::configure(PetscInt unknowns) {
   // Defaults are set on the objects, then SNESSetFromOptions lets the options
   // database (command line, case file) override any of them.
+  //
+  // Default: Newton with a trust region (PETSc SNESNEWTONTR). Full Newton
+  // steps cycle between branches of the return map at large steps
+  // (docs/solver.md#large-steps); the trust region keeps the iterates where
+  // the linearisation holds. Nonlinear GMRES over an inexact Newton step
+  // (-talus_snes_type ngmres, configured below) is faster but not yet the
+  // default: on a contact case its serial and parallel runs differ by more
+  // than the solver tolerance.
   TALUS_PETSC(SNESSetOptionsPrefix(snes_, "talus_"));
-  TALUS_PETSC(SNESSetType(snes_, SNESNEWTONLS));
+  TALUS_PETSC(SNESSetType(snes_, SNESNEWTONTR));
+  // Tolerances other than max_it are not used: the physical test decides.
+  TALUS_PETSC(SNESSetTolerances(snes_, 0.0, 0.0, 0.0, 25, PETSC_DEFAULT));
+  // For a Newton-type outer solver (newtontr, newtonls): full steps for a
+  // line search, LU below the direct limit, GMRES + GAMG above it.
   SNESLineSearch line_search;
   TALUS_PETSC(SNESGetLineSearch(snes_, &line_search));
   TALUS_PETSC(SNESLineSearchSetType(line_search, SNESLINESEARCHBASIC));
-  // Tolerances other than max_it are not used: the physical test decides.
-  TALUS_PETSC(SNESSetTolerances(snes_, 0.0, 0.0, 0.0, 25, PETSC_DEFAULT));
   KSP ksp;
   PC pc;
   TALUS_PETSC(SNESGetKSP(snes_, &ksp));
@@ -99,15 +120,38 @@ void NewtonSolver<dim>::configure(PetscInt unknowns) {
   if (unknowns <= direct_limit_) {
     configure_direct(ksp);
   } else {
-    // Large systems: GMRES (the Jacobian is non-symmetric) with algebraic
-    // multigrid, preconditioned on the right so that the Krylov residual is
-    // the true one.
     TALUS_PETSC(KSPSetType(ksp, KSPGMRES));
     TALUS_PETSC(KSPSetPCSide(ksp, PC_RIGHT));
     TALUS_PETSC(KSPSetTolerances(ksp, 1e-11, PETSC_DEFAULT, PETSC_DEFAULT, 500));
     TALUS_PETSC(PCSetType(pc, PCGAMG));
   }
   TALUS_PETSC(SNESSetFromOptions(snes_));
+  PetscBool accelerated = PETSC_FALSE;
+  TALUS_PETSC(PetscObjectTypeCompareAny(reinterpret_cast<PetscObject>(snes_), &accelerated, SNESNGMRES,
+                                        SNESANDERSON, ""));
+  if (accelerated) {
+    // The inner Newton step (prefix talus_npc_): one iteration, full step,
+    // an inexact right-preconditioned GMRES solve (relative 1e-5: the outer
+    // iteration corrects it) with ILU, or GAMG above the direct limit.
+    SNES newton;
+    TALUS_PETSC(SNESGetNPC(snes_, &newton));
+    TALUS_PETSC(SNESSetType(newton, SNESNEWTONLS));
+    TALUS_PETSC(SNESSetTolerances(newton, 0.0, 0.0, 0.0, 1, PETSC_DEFAULT));
+    SNESLineSearch inner_search;
+    TALUS_PETSC(SNESGetLineSearch(newton, &inner_search));
+    TALUS_PETSC(SNESLineSearchSetType(inner_search, SNESLINESEARCHBASIC));
+    KSP inner;
+    PC inner_pc;
+    TALUS_PETSC(SNESGetKSP(newton, &inner));
+    TALUS_PETSC(KSPGetPC(inner, &inner_pc));
+    TALUS_PETSC(KSPSetType(inner, KSPGMRES));
+    TALUS_PETSC(KSPSetPCSide(inner, PC_RIGHT));
+    TALUS_PETSC(KSPSetTolerances(inner, 1e-5, PETSC_DEFAULT, PETSC_DEFAULT, 200));
+    int size = 1;
+    MPI_Comm_size(comm_, &size);
+    TALUS_PETSC(PCSetType(inner_pc, unknowns <= direct_limit_ ? (size > 1 ? PCBJACOBI : PCILU) : PCGAMG));
+    TALUS_PETSC(SNESSetFromOptions(newton));
+  }
   // After the options: nobody replaces the physical test.
   TALUS_PETSC(SNESSetConvergenceTest(snes_, physical_convergence<dim>, &scale_, nullptr));
 }
@@ -120,7 +164,7 @@ template <int dim>
 MatType NewtonSolver<dim>::matrix_type() const {
   KSP ksp;
   PC pc;
-  TALUS_PETSC(SNESGetKSP(snes_, &ksp));
+  TALUS_PETSC(SNESGetKSP(solving_snes(), &ksp));
   TALUS_PETSC(KSPGetPC(ksp, &pc));
   PetscBool lu = PETSC_FALSE;
   TALUS_PETSC(PetscObjectTypeCompare(reinterpret_cast<PetscObject>(pc), PCLU, &lu));
@@ -132,6 +176,17 @@ MatType NewtonSolver<dim>::matrix_type() const {
   const bool blocks =
       package != nullptr && (std::strcmp(package, MATSOLVERPETSC) == 0 || std::strcmp(package, MATSOLVERMUMPS) == 0);
   return blocks ? MATBAIJ : MATAIJ;
+}
+
+template <int dim>
+SNES NewtonSolver<dim>::solving_snes() const {
+  // With an inner Newton step, its KSP does the linear solves.
+  PetscBool has_inner = PETSC_FALSE;
+  TALUS_PETSC(SNESHasNPC(snes_, &has_inner));
+  if (!has_inner) return snes_;
+  SNES inner;
+  TALUS_PETSC(SNESGetNPC(snes_, &inner));
+  return inner;
 }
 
 template <int dim>
@@ -154,12 +209,22 @@ void NewtonSolver<dim>::build(MomentumSystem<dim>& system, PetscInt unknowns, bo
   // A fresh SNES (SNESReset leaves stale sizes inside some preconditioners,
   // e.g. GAMG's coarse solver).
   TALUS_PETSC(SNESCreate(comm_, &snes_));
-  configure(unknowns);
   forced_direct_ = direct;
   if (direct) {
+    // The fallback after a failed linear solve: plain Newton with full steps
+    // and an LU solve, whatever the options say.
+    TALUS_PETSC(SNESSetOptionsPrefix(snes_, "talus_fallback_"));
+    TALUS_PETSC(SNESSetType(snes_, SNESNEWTONLS));
+    TALUS_PETSC(SNESSetTolerances(snes_, 0.0, 0.0, 0.0, 25, PETSC_DEFAULT));
+    SNESLineSearch line_search;
+    TALUS_PETSC(SNESGetLineSearch(snes_, &line_search));
+    TALUS_PETSC(SNESLineSearchSetType(line_search, SNESLINESEARCHBASIC));
     KSP ksp;
     TALUS_PETSC(SNESGetKSP(snes_, &ksp));
     configure_direct(ksp);
+    TALUS_PETSC(SNESSetConvergenceTest(snes_, physical_convergence<dim>, &scale_, nullptr));
+  } else {
+    configure(unknowns);
   }
   J_ = system.create_matrix(matrix_type());
   Vec v = system.initial_guess();
@@ -178,17 +243,33 @@ NewtonReport NewtonSolver<dim>::run_snes(MomentumSystem<dim>& system) {
   std::vector<PetscReal> history(128);
   TALUS_PETSC(SNESSetConvergenceHistory(snes_, history.data(), nullptr, static_cast<PetscInt>(history.size()),
                                         PETSC_TRUE));
+  KSP ksp;
+  TALUS_PETSC(SNESGetKSP(solving_snes(), &ksp));
+  linear_failures_ = 0;
+  TALUS_PETSC(KSPSetPostSolve(ksp, record_linear_failure, &linear_failures_));
+  PetscInt linear_before = 0, linear_after = 0;
+  TALUS_PETSC(KSPGetTotalIterations(ksp, &linear_before));
   TALUS_PETSC(SNESSolve(snes_, nullptr, v));
+  TALUS_PETSC(KSPGetTotalIterations(ksp, &linear_after));
   PetscInt recorded = 0;
   TALUS_PETSC(SNESGetConvergenceHistory(snes_, nullptr, nullptr, &recorded));
   report.residual_norms.assign(history.begin(), history.begin() + recorded);
   SNESConvergedReason reason;
   TALUS_PETSC(SNESGetConvergedReason(snes_, &reason));
   TALUS_PETSC(SNESGetIterationNumber(snes_, &report.iterations));
-  TALUS_PETSC(SNESGetLinearSolveIterations(snes_, &report.linear_iterations));
+  report.linear_iterations = linear_after - linear_before;
   report.converged = reason > 0;
   report.reason = SNESConvergedReasons[reason];
+  if (reason == SNES_DIVERGED_INNER) {
+    // The inner Newton step failed: report why (a failed linear solve is
+    // then retried by LU, like the outer one).
+    SNESConvergedReason inner;
+    TALUS_PETSC(SNESGetConvergedReason(solving_snes(), &inner));
+    if (inner < 0) report.reason = SNESConvergedReasons[inner];
+  }
   report.unbalance = scale_.unbalance;
+  report.linear_failures = linear_failures_;
+  if (!report.converged && linear_failures_ > 0) report.reason = SNESConvergedReasons[SNES_DIVERGED_LINEAR_SOLVE];
   if (report.converged) system.finish(v);
   TALUS_PETSC(VecDestroy(&v));
   return report;
@@ -205,7 +286,7 @@ NewtonReport NewtonSolver<dim>::solve(MomentumSystem<dim>& system) {
   NewtonReport report = run_snes(system);
   report.structure_built = built;
   KSP ksp;
-  TALUS_PETSC(SNESGetKSP(snes_, &ksp));
+  TALUS_PETSC(SNESGetKSP(solving_snes(), &ksp));
   PetscBool already_lu = PETSC_FALSE;
   {
     PC pc;

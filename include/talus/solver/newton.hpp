@@ -33,6 +33,7 @@ struct NewtonReport {
   double unbalance = 0.0;              // U at the last iterate (docs/solver.md#convergence)
   bool structure_built = false;        // matrix and KSP/PC built for this step (active set changed)
   bool direct_fallback = false;        // a linear solve failed and the step was solved again by LU
+  long linear_failures = 0;            // linear solves that did not converge (the step is judged on U alone)
 };
 
 template <int dim>
@@ -66,6 +67,7 @@ class NewtonSolver {
   void configure(PetscInt unknowns);
   void configure_direct(KSP ksp);  // preonly + LU (PETSc's LU in serial, MUMPS in parallel)
   MatType matrix_type() const;     // for the preconditioner configure() set up
+  SNES solving_snes() const;       // the SNES whose KSP solves the linear systems (inner Newton, if any)
   void build(MomentumSystem<dim>& system, PetscInt unknowns, bool direct);
   void destroy();
   bool same_unknowns(const MomentumSystem<dim>& system) const;
@@ -82,6 +84,7 @@ class NewtonSolver {
   bool forced_direct_ = false;          // the current structure was built for an LU retry
   std::vector<int> unknown_points_;     // the active set the structure was built for (this rank)
   PetscInt unknown_count_ = -1;         // global
+  long linear_failures_ = 0;            // of the current SNESSolve
 };
 
 }  // namespace talus

@@ -7,13 +7,16 @@
 // the flow: the patience doubles (up to max_patience), so a run does not
 // retry a step that keeps failing every few steps. Once the nominal step has
 // held for 4 x patience steps, the patience relaxes back by halves.
+// A step whose Newton solve was easy (at most easy_iterations iterations)
+// counts twice towards the regrowth: the run returns to larger steps as soon
+// as Newton shows it has room, not after a fixed count.
 #include <algorithm>
 
 namespace talus {
 
 class StepController {
  public:
-  static constexpr long initial_patience = 3, max_patience = 96;
+  static constexpr long initial_patience = 3, max_patience = 32, easy_iterations = 4;
 
   explicit StepController(double nominal_step) : nominal_(nominal_step), h_(nominal_step) {}
 
@@ -42,11 +45,12 @@ class StepController {
     return h_;
   }
 
-  // The step of size step() converged.
-  void succeeded() {
+  // The step of size step() converged, in newton_iterations (< 0: unknown).
+  void succeeded(long newton_iterations = -1) {
     ++since_growth_;
     if (h_ < nominal_) {
-      if (++calm_ >= patience_) {
+      calm_ += newton_iterations >= 0 && newton_iterations <= easy_iterations ? 2 : 1;
+      if (calm_ >= patience_) {
         h_ = std::min(nominal_, 2.0 * h_);
         calm_ = 0;
         since_growth_ = 0;

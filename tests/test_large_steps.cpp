@@ -1,0 +1,86 @@
+// Large implicit steps through a collapsing, frictional, plastic column
+// (issue 11): a coarse version of the reference column (inputs/
+// reference_column_frictional.yaml) at 20 times its explicit step, with
+// psi = 0 and with associated flow, converges with few cut-backs, and its
+// deposit matches a run at a four times smaller step.
+#include <catch2/catch.hpp>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "talus/simulation.hpp"
+#include "test_support.hpp"
+
+using namespace talus;
+
+namespace {
+
+struct Deposit {
+  double runout = 0;       // x below which 99 % of the particles lie (m)
+  double wall_height = 0;  // highest particle within one cell of the left wall (m)
+  RunSummary summary;
+};
+
+// Cell 0.02 m, 2 x 2 particles per cell (800 particles), Mohr-Coulomb
+// phi = 30, c = 100 Pa, E = 1 MPa, nu = 0.3, rho = 1800: P-wave speed
+// 27.3 m/s, so an explicit code needs h <= 0.02 / 27.3 = 7.3e-4 s and runs
+// about 2e-4 s (the reference column's 1e-4 s at half the cell).
+Deposit collapse(double psi, double h, double end) {
+  char yaml[1400];
+  std::snprintf(yaml, sizeof yaml,
+                "grid: {lower: [0, 0], upper: [1.0, 0.5], cell_size: 0.02}\n"
+                "time: {end: %.17g, step: %.17g}\noutput: {enabled: false}\ngravity: [0, -9.81]\n"
+                "materials: [{name: sand, model: mohr_coulomb, density: 1800, youngs_modulus: 1.0e6,"
+                " poisson_ratio: 0.3, friction_angle: 30, dilatancy_angle: %g, cohesion: 100}]\n"
+                "bodies: [{name: column, material: sand, box: {lower: [0, 0], upper: [0.2, 0.4]},"
+                " particles_per_cell: 2}]\n"
+                "boundaries: {x_min: slip, x_max: slip, y_min: {condition: frictional, friction: 0.4}, y_max: slip}\n",
+                end, h, psi);
+  Simulation<2> sim(testing::case_from_yaml(yaml), PETSC_COMM_SELF);
+  Deposit d;
+  d.summary = sim.run(nullptr);
+  const auto x = testing::gather_by_id(sim.particles(), field::position, 2);
+  std::vector<double> xs;
+  for (std::size_t p = 0; p < x.size() / 2; ++p) {
+    xs.push_back(x[2 * p]);
+    if (x[2 * p] < 0.02) d.wall_height = std::max(d.wall_height, x[2 * p + 1]);
+  }
+  std::sort(xs.begin(), xs.end());
+  d.runout = xs[static_cast<std::size_t>(0.99 * (xs.size() - 1))];
+  return d;
+}
+
+void check_large_steps(double psi, const char* name) {
+  const double explicit_step = 2e-4, end = 0.6;
+  const Deposit large = collapse(psi, 20 * explicit_step, end);
+  const Deposit small = collapse(psi, 5 * explicit_step, end);
+  std::printf("%s: h = 4e-3 s: %ld steps, %ld cut-backs, %.2f Newton/step, run-out %.4f m, wall height %.4f m; "
+              "h = 1e-3 s: %ld steps, %ld cut-backs, %.2f Newton/step, run-out %.4f m, wall height %.4f m\n",
+              name, large.summary.steps, large.summary.cutbacks,
+              double(large.summary.newton_iterations) / large.summary.steps, large.runout, large.wall_height,
+              small.summary.steps, small.summary.cutbacks,
+              double(small.summary.newton_iterations) / small.summary.steps, small.runout, small.wall_height);
+  // 150 nominal steps. Issue 11 asks for a handful of cut-backs at most;
+  // measured on 2026-11-24 with the trust-region default: 5 (psi = 0) and
+  // 9 (psi = phi) cut-backs, 157 and 288 steps. These bounds guard that
+  // state against regressions; the target itself is still open
+  // (docs/solver.md#large-steps).
+  CHECK(large.summary.cutbacks <= 12);
+  CHECK(large.summary.steps <= 2 * 150);
+  // The deposit at 0.6 s: within 2 cells' worth of the small-step run,
+  // 0.04 m, about 5 % of a run-out of 0.6-0.9 m, the first-order time
+  // error at 4x the step (the same figure in the issue asks 2 % on the
+  // finer reference column).
+  CHECK(std::abs(large.runout - small.runout) < 0.04);
+  CHECK(std::abs(large.wall_height - small.wall_height) < 0.04);
+}
+
+}  // namespace
+
+TEST_CASE("large steps: a frictional psi = 0 column at 20x the explicit step", "[solver][large_steps]") {
+  check_large_steps(0.0, "psi = 0");
+}
+
+TEST_CASE("large steps: a frictional associated column at 20x the explicit step", "[solver][large_steps]") {
+  check_large_steps(30.0, "psi = phi");
+}
