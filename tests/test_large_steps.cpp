@@ -34,11 +34,13 @@ Deposit collapse(double psi, double h, double end) {
                 " poisson_ratio: 0.3, friction_angle: 30, dilatancy_angle: %g, cohesion: 100}]\n"
                 "bodies: [{name: column, material: sand, box: {lower: [0, 0], upper: [0.2, 0.4]},"
                 " particles_per_cell: 2}]\n"
-                "boundaries: {x_min: slip, x_max: slip, y_min: {condition: frictional, friction: 0.4}, y_max: slip}\n",
+                "boundaries: {x_min: slip, x_max: slip, y_min: {condition: frictional, friction: 0.4}, y_max: slip}\n"
+                "solver: {petsc_options: {snes_type: newtontr}}\n",
                 end, h, psi);
   Simulation<2> sim(testing::case_from_yaml(yaml), PETSC_COMM_SELF);
   Deposit d;
   d.summary = sim.run(nullptr);
+  TALUS_PETSC(PetscOptionsClearValue(nullptr, "-talus_snes_type"));
   const auto x = testing::gather_by_id(sim.particles(), field::position, 2);
   std::vector<double> xs;
   for (std::size_t p = 0; p < x.size() / 2; ++p) {
@@ -61,7 +63,7 @@ void check_large_steps(double psi, const char* name) {
               small.summary.steps, small.summary.cutbacks,
               double(small.summary.newton_iterations) / small.summary.steps, small.runout, small.wall_height);
   // 150 nominal steps. Issue 11 asks for a handful of cut-backs at most;
-  // measured on 2026-11-24 with the trust-region default: 5 (psi = 0) and
+  // measured on 2026-11-24 with the trust region (newtontr): 5 (psi = 0) and
   // 9 (psi = phi) cut-backs, 157 and 288 steps. These bounds guard that
   // state against regressions; the target itself is still open
   // (docs/solver.md#large-steps).

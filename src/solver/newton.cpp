@@ -97,15 +97,15 @@ void NewtonSolver<dim>::configure(PetscInt unknowns) {
   // Defaults are set on the objects, then SNESSetFromOptions lets the options
   // database (command line, case file) override any of them.
   //
-  // Default: Newton with a trust region (PETSc SNESNEWTONTR). Full Newton
-  // steps cycle between branches of the return map at large steps
-  // (docs/solver.md#large-steps); the trust region keeps the iterates where
-  // the linearisation holds. Nonlinear GMRES over an inexact Newton step
+  // Default: Newton with full steps. At large steps they cycle between
+  // branches of the return map (docs/solver.md#large-steps); a trust region
+  // (-talus_snes_type newtontr) avoids most of the cut-backs but is not yet
+  // the default: a 2-rank contact test failed a step with it in CI. Nonlinear GMRES over an inexact Newton step
   // (-talus_snes_type ngmres, configured below) is faster but not yet the
   // default: on a contact case its serial and parallel runs differ by more
   // than the solver tolerance.
   TALUS_PETSC(SNESSetOptionsPrefix(snes_, "talus_"));
-  TALUS_PETSC(SNESSetType(snes_, SNESNEWTONTR));
+  TALUS_PETSC(SNESSetType(snes_, SNESNEWTONLS));
   // Tolerances other than max_it are not used: the physical test decides.
   TALUS_PETSC(SNESSetTolerances(snes_, 0.0, 0.0, 0.0, 25, PETSC_DEFAULT));
   // For a Newton-type outer solver (newtontr, newtonls): full steps for a
