@@ -28,12 +28,7 @@ std::string column(double end, const std::string& directory) {
 
 double max_relative_difference(const std::vector<double>& a, const std::vector<double>& b) {
   REQUIRE(a.size() == b.size());
-  double scale = 0, diff = 0;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    scale = std::max(scale, std::abs(a[i]));
-    diff = std::max(diff, std::abs(a[i] - b[i]));
-  }
-  return scale > 0 ? diff / scale : diff;
+  return testing::max_relative_difference(a, b);
 }
 
 }  // namespace

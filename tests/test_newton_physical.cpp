@@ -30,14 +30,7 @@ std::string column_case(double H, double dx, double step, const std::string& sol
 
 void clear(const char* name) { TALUS_PETSC(PetscOptionsClearValue(nullptr, name)); }
 
-double max_relative_difference(const std::vector<double>& a, const std::vector<double>& b) {
-  double scale = 0.0, diff = 0.0;
-  for (std::size_t k = 0; k < a.size(); ++k) {
-    scale = std::max(scale, std::abs(b[k]));
-    diff = std::max(diff, std::abs(a[k] - b[k]));
-  }
-  return diff / scale;
-}
+using testing::max_relative_difference;
 
 }  // namespace
 

@@ -4,6 +4,7 @@
 #include <mpi.h>
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <string>
 #include <vector>
@@ -85,6 +86,16 @@ double block_matrix_difference(MomentumSystem<dim>& system, Vec v, Mat aij) {
   MatDestroy(&converted);
   MatDestroy(&baij);
   return difference / norm;
+}
+
+// max_k |a_k - b_k| / max_k |a_k| (the plain difference when a is zero).
+inline double max_relative_difference(const std::vector<double>& a, const std::vector<double>& b) {
+  double scale = 0, diff = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    scale = std::max(scale, std::abs(a[i]));
+    diff = std::max(diff, std::abs(a[i] - b[i]));
+  }
+  return scale > 0 ? diff / scale : diff;
 }
 
 inline int comm_size(MPI_Comm comm) {

@@ -58,6 +58,16 @@ PetscErrorCode record_linear_failure(KSP ksp, Vec, Vec, void* ctx) {
   return 0;
 }
 
+// Newton with full steps and at most max_it iterations; tolerances other
+// than max_it are left to the physical test.
+void set_full_newton(SNES snes, PetscInt max_it) {
+  TALUS_PETSC(SNESSetType(snes, SNESNEWTONLS));
+  TALUS_PETSC(SNESSetTolerances(snes, 0.0, 0.0, 0.0, max_it, PETSC_DEFAULT));
+  SNESLineSearch line_search;
+  TALUS_PETSC(SNESGetLineSearch(snes, &line_search));
+  TALUS_PETSC(SNESLineSearchSetType(line_search, SNESLINESEARCHBASIC));
+}
+
 }  // namespace
 
 template <int dim>
@@ -97,22 +107,16 @@ void NewtonSolver<dim>::configure(PetscInt unknowns) {
   // Defaults are set on the objects, then SNESSetFromOptions lets the options
   // database (command line, case file) override any of them.
   //
-  // Default: Newton with full steps. At large steps they cycle between
-  // branches of the return map (docs/solver.md#large-steps); a trust region
+  // Default: Newton with full steps, LU below the direct limit, GMRES +
+  // GAMG above it. At large steps full steps cycle between branches of the
+  // return map (docs/solver.md#large-steps); a trust region
   // (-talus_snes_type newtontr) avoids most of the cut-backs but is not yet
-  // the default: a 2-rank contact test failed a step with it in CI. Nonlinear GMRES over an inexact Newton step
-  // (-talus_snes_type ngmres, configured below) is faster but not yet the
-  // default: on a contact case its serial and parallel runs differ by more
-  // than the solver tolerance.
+  // the default: a 2-rank contact test failed a step with it in CI.
+  // Nonlinear GMRES over an inexact Newton step (-talus_snes_type ngmres,
+  // configured below) is faster, but its serial and parallel runs of a
+  // contact case differ by more than the solver tolerance.
   TALUS_PETSC(SNESSetOptionsPrefix(snes_, "talus_"));
-  TALUS_PETSC(SNESSetType(snes_, SNESNEWTONLS));
-  // Tolerances other than max_it are not used: the physical test decides.
-  TALUS_PETSC(SNESSetTolerances(snes_, 0.0, 0.0, 0.0, 25, PETSC_DEFAULT));
-  // For a Newton-type outer solver (newtontr, newtonls): full steps for a
-  // line search, LU below the direct limit, GMRES + GAMG above it.
-  SNESLineSearch line_search;
-  TALUS_PETSC(SNESGetLineSearch(snes_, &line_search));
-  TALUS_PETSC(SNESLineSearchSetType(line_search, SNESLINESEARCHBASIC));
+  set_full_newton(snes_, 25);
   KSP ksp;
   PC pc;
   TALUS_PETSC(SNESGetKSP(snes_, &ksp));
@@ -135,11 +139,7 @@ void NewtonSolver<dim>::configure(PetscInt unknowns) {
     // iteration corrects it) with ILU, or GAMG above the direct limit.
     SNES newton;
     TALUS_PETSC(SNESGetNPC(snes_, &newton));
-    TALUS_PETSC(SNESSetType(newton, SNESNEWTONLS));
-    TALUS_PETSC(SNESSetTolerances(newton, 0.0, 0.0, 0.0, 1, PETSC_DEFAULT));
-    SNESLineSearch inner_search;
-    TALUS_PETSC(SNESGetLineSearch(newton, &inner_search));
-    TALUS_PETSC(SNESLineSearchSetType(inner_search, SNESLINESEARCHBASIC));
+    set_full_newton(newton, 1);
     KSP inner;
     PC inner_pc;
     TALUS_PETSC(SNESGetKSP(newton, &inner));
@@ -162,13 +162,8 @@ void NewtonSolver<dim>::configure(PetscInt unknowns) {
 // SuperLU, UMFPACK and KLU do not take BAIJ.
 template <int dim>
 MatType NewtonSolver<dim>::matrix_type() const {
-  KSP ksp;
-  PC pc;
-  TALUS_PETSC(SNESGetKSP(solving_snes(), &ksp));
-  TALUS_PETSC(KSPGetPC(ksp, &pc));
-  PetscBool lu = PETSC_FALSE;
-  TALUS_PETSC(PetscObjectTypeCompare(reinterpret_cast<PetscObject>(pc), PCLU, &lu));
-  if (!lu) return MATAIJ;
+  PC pc = solving_pc();
+  if (!solves_by_lu()) return MATAIJ;
   MatSolverType package = nullptr;
   TALUS_PETSC(PCFactorGetMatSolverType(pc, &package));
   // No package named (an LU forced above the direct limit): PETSc picks one
@@ -187,6 +182,22 @@ SNES NewtonSolver<dim>::solving_snes() const {
   SNES inner;
   TALUS_PETSC(SNESGetNPC(snes_, &inner));
   return inner;
+}
+
+template <int dim>
+PC NewtonSolver<dim>::solving_pc() const {
+  KSP ksp;
+  PC pc;
+  TALUS_PETSC(SNESGetKSP(solving_snes(), &ksp));
+  TALUS_PETSC(KSPGetPC(ksp, &pc));
+  return pc;
+}
+
+template <int dim>
+bool NewtonSolver<dim>::solves_by_lu() const {
+  PetscBool lu = PETSC_FALSE;
+  TALUS_PETSC(PetscObjectTypeCompare(reinterpret_cast<PetscObject>(solving_pc()), PCLU, &lu));
+  return lu;
 }
 
 template <int dim>
@@ -214,11 +225,7 @@ void NewtonSolver<dim>::build(MomentumSystem<dim>& system, PetscInt unknowns, bo
     // The fallback after a failed linear solve: plain Newton with full steps
     // and an LU solve, whatever the options say.
     TALUS_PETSC(SNESSetOptionsPrefix(snes_, "talus_fallback_"));
-    TALUS_PETSC(SNESSetType(snes_, SNESNEWTONLS));
-    TALUS_PETSC(SNESSetTolerances(snes_, 0.0, 0.0, 0.0, 25, PETSC_DEFAULT));
-    SNESLineSearch line_search;
-    TALUS_PETSC(SNESGetLineSearch(snes_, &line_search));
-    TALUS_PETSC(SNESLineSearchSetType(line_search, SNESLINESEARCHBASIC));
+    set_full_newton(snes_, 25);
     KSP ksp;
     TALUS_PETSC(SNESGetKSP(snes_, &ksp));
     configure_direct(ksp);
@@ -285,15 +292,7 @@ NewtonReport NewtonSolver<dim>::solve(MomentumSystem<dim>& system) {
   if (built) build(system, unknowns, false);
   NewtonReport report = run_snes(system);
   report.structure_built = built;
-  KSP ksp;
-  TALUS_PETSC(SNESGetKSP(solving_snes(), &ksp));
-  PetscBool already_lu = PETSC_FALSE;
-  {
-    PC pc;
-    TALUS_PETSC(KSPGetPC(ksp, &pc));
-    TALUS_PETSC(PetscObjectTypeCompare(reinterpret_cast<PetscObject>(pc), PCLU, &already_lu));
-  }
-  if (!report.converged && report.reason == SNESConvergedReasons[SNES_DIVERGED_LINEAR_SOLVE] && !already_lu) {
+  if (!report.converged && report.linear_failures > 0 && !solves_by_lu()) {
     // The preconditioner could not solve a Newton system: solve the step
     // again with a direct factorization before giving up on this h.
     build(system, unknowns, true);

@@ -68,6 +68,8 @@ class NewtonSolver {
   void configure_direct(KSP ksp);  // preonly + LU (PETSc's LU in serial, MUMPS in parallel)
   MatType matrix_type() const;     // for the preconditioner configure() set up
   SNES solving_snes() const;       // the SNES whose KSP solves the linear systems (inner Newton, if any)
+  PC solving_pc() const;           // its preconditioner
+  bool solves_by_lu() const;
   void build(MomentumSystem<dim>& system, PetscInt unknowns, bool direct);
   void destroy();
   bool same_unknowns(const MomentumSystem<dim>& system) const;
