@@ -386,6 +386,9 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
     summary.last_checkpoint = config_.checkpoint.directory + "/" + name;
     write_checkpoint(summary.last_checkpoint, *particles_, state, comm_);
     if (progress && rank == 0) *progress << "  checkpoint " << summary.last_checkpoint << "\n";
+    // A restart from here starts with fresh LU factors; so does this run, so
+    // that both continue bit for bit (docs/checkpoints.md).
+    newton_->refactor_next_step();
   };
   pending_signal = 0;
   const auto previous_int = std::signal(SIGINT, remember_signal);
@@ -407,6 +410,7 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
     summary.contact_seconds += r.contact_seconds;
     summary.structure_builds += r.newton.structure_built;
     summary.direct_fallbacks += r.newton.direct_fallback;
+    summary.factorizations += r.newton.factorizations;
     if (!r.converged) {
       ++summary.cutbacks;
       const double h = control.failed();

@@ -83,6 +83,17 @@ set -e
 grep -q "bad.yaml:[0-9]*: materials\[0\].poisson_ratio = 0.7" bad.log || { echo "FAIL: message"; cat bad.log; exit 1; }
 [ ! -e "$work/bad_out" ] || { echo "FAIL: a bad case wrote output"; exit 1; }
 
+# A bad value of talus's own PETSc option: exit 2, named, no output.
+sed -e "s#directory: .*#directory: $work/bad_option_out#" "$repo/inputs/elastic_column.yaml" > bad_option.yaml
+set +e
+"$talus" run bad_option.yaml -talus_refactor_iterations 3x > bad_option.log 2>&1
+code=$?
+set -e
+[ "$code" -eq 2 ] || { echo "FAIL: exit code $code for -talus_refactor_iterations 3x (want 2)"; cat bad_option.log; exit 1; }
+grep -q "talus_refactor_iterations: expected an integer in \[0, 1000000\], got '3x'" bad_option.log ||
+  { echo "FAIL: message for -talus_refactor_iterations 3x"; cat bad_option.log; exit 1; }
+[ ! -e "$work/bad_option_out" ] || { echo "FAIL: a bad option wrote output"; exit 1; }
+
 # A short run: .pvd, .pvtu and .vtu files, read back with VTK.
 sed -e "s#directory: .*#directory: $work/out#" -e 's/end: 0.5/end: 0.02/' \
   "$repo/inputs/elastic_column.yaml" > run.yaml
@@ -372,12 +383,17 @@ print(f"cli ok: obstacles, {len(f)} rows; floor force {-last[2]!r} N/m vs m g = 
 
 # Two ranks: one contact piece per rank, those at t = 0 empty and readable;
 # the table equals the serial one to solver tolerance, also after a restart.
+# (The block rests on the floor: the balance test bounds each step's
+# unbalanced force by balance_tolerance W = 1e-8 W, the bound used here. The
+# GMRES solves on reused LU factors differ between 1 rank (PETSc's LU) and 2
+# (MUMPS); measured 1.6e-9 W. docs/solver.md#non-unique-steps: at 1e-10 the
+# two runs select different contact states, 3.8e-3 W apart.)
 worst = 0.0
 for run in ("obs2", "obs"):
     header2, f2 = table(os.path.join(work, run, "obstacle_forces.csv"))
     assert header2 == header and f2.shape == f.shape and np.all(f2[:, 0] == f[:, 0]), (run, f2.shape)
     worst = max(worst, np.abs(f2[:, 1:] - f[:, 1:]).max() / W)
-    assert worst <= 1e-9, (run, worst)
+    assert worst <= 1e-8, (run, worst)
 out2 = os.path.join(work, "obs2")
 with open(os.path.join(out2, "contacts_000000.pvtu")) as fh:
     pieces = [e.get("Source") for e in ET.fromstring(fh.read()).iter("Piece")]

@@ -105,10 +105,14 @@ TEST_CASE("the matrix and preconditioner are built once while the active set hol
   // active grid points never change. One build for 6 steps, and the same
   // answer as building everything at every step.
   const std::string yaml = column_case(1.0, 0.1, 0.005, "");
+  // A fresh LU at every iterate (preonly), so that both runs factor the
+  // same matrices (reused factors are tested below).
   const auto run = [&](bool reuse) {
+    TALUS_PETSC(PetscOptionsSetValue(nullptr, "-talus_ksp_type", "preonly"));
     Simulation<2> sim(testing::case_from_yaml(yaml), PETSC_COMM_WORLD);
     sim.newton().set_structure_reuse(reuse);
     for (int n = 0; n < 6; ++n) REQUIRE(sim.advance(0.005).converged);
+    clear("-talus_ksp_type");
     return std::pair{testing::gather_by_id(sim.particles(), field::stress, 6), sim.newton().structure_builds()};
   };
   const auto [kept, kept_builds] = run(true);
@@ -136,4 +140,110 @@ TEST_CASE("the structure is rebuilt when the active set changes", "[solver][reus
   }
   CHECK(sim.newton().structure_builds() == built);
   CHECK(built > 1);  // the block falls ~0.8 m: its support moves over several cells
+}
+
+namespace {
+
+// A coarse collapsing Mohr-Coulomb column (test_large_steps.cpp's, cell
+// 0.02 m, 800 particles) with associated flow on a slip floor: plastic
+// branches change between Newton iterates, so the Jacobian does too. With
+// associated flow the step is a convex minimization, so its solution is
+// unique and two solvers must find the same one. (With psi = 0 on a Coulomb
+// floor they need not: docs/solver.md#non-unique-steps.)
+std::string collapsing_column(double h) {
+  char yaml[1200];
+  std::snprintf(yaml, sizeof yaml,
+                "grid: {lower: [0, 0], upper: [1.0, 0.5], cell_size: 0.02}\n"
+                "time: {end: 1.0, step: %.17g}\noutput: {enabled: false}\ngravity: [0, -9.81]\n"
+                "materials: [{name: sand, model: mohr_coulomb, density: 1800, youngs_modulus: 1.0e6,"
+                " poisson_ratio: 0.3, friction_angle: 30, dilatancy_angle: 30, cohesion: 100}]\n"
+                "bodies: [{name: column, material: sand, box: {lower: [0, 0], upper: [0.2, 0.4]},"
+                " particles_per_cell: 2}]\n"
+                "boundaries: {x_min: slip, x_max: slip, y_min: slip, y_max: slip}\n",
+                h);
+  return yaml;
+}
+
+struct ColumnRun {
+  std::vector<double> stress;
+  long newton = 0, factorizations = 0, linear_failures = 0, fallbacks = 0, retries = 0;
+};
+
+// `steps` steps of h with the PETSc options `options` (name, value) set for
+// the run only.
+ColumnRun run_column(const std::string& yaml, double h, int steps,
+                     const std::vector<std::pair<std::string, std::string>>& options, MPI_Comm comm) {
+  for (const auto& [name, value] : options) TALUS_PETSC(PetscOptionsSetValue(nullptr, name.c_str(), value.c_str()));
+  ColumnRun run;
+  {
+    Simulation<2> sim(testing::case_from_yaml(yaml), comm);
+    for (int n = 0; n < steps; ++n) {
+      const StepReport r = sim.advance(h);
+      REQUIRE(r.converged);
+      run.newton += r.newton.iterations;
+      run.factorizations += r.newton.factorizations;
+      run.linear_failures += r.newton.linear_failures;
+      run.fallbacks += r.newton.direct_fallback;
+      run.retries += r.newton.fresh_retry;
+    }
+    run.stress = testing::gather_by_id(sim.particles(), field::stress, 6);
+  }
+  for (const auto& option : options) clear(option.first.c_str());
+  return run;
+}
+
+}  // namespace
+
+// The default below the direct limit is GMRES preconditioned by the LU
+// factors of an earlier Newton iterate, factored again only when a solve
+// needs more than -talus_refactor_iterations Krylov iterations. The
+// reference is Newton with a fresh LU solve at every iterate (preonly).
+TEST_CASE("LU factors are kept across steps while the Jacobian holds", "[solver][reuse][mpi]") {
+  {
+    // Elastic, at rest: every Jacobian equals the first, so its factors
+    // solve every later system in one Krylov iteration.
+    const std::string yaml = column_case(1.0, 0.1, 0.005, "");
+    const ColumnRun reused = run_column(yaml, 0.005, 6, {}, PETSC_COMM_WORLD);
+    const ColumnRun fresh = run_column(yaml, 0.005, 6, {{"-talus_ksp_type", "preonly"}}, PETSC_COMM_WORLD);
+    CHECK(reused.factorizations == 1);
+    CHECK(fresh.factorizations == 0);  // preonly: no reuse, nothing counted
+    // Both Newton runs stop at U <= 1e-8 on a linear problem: one Newton
+    // iteration each, solved to GMRES's 1e-8 or exactly.
+    CHECK(max_relative_difference(reused.stress, fresh.stress) < 1e-7);
+  }
+}
+
+TEST_CASE("LU factors are refreshed when they no longer precondition well", "[solver][reuse]") {
+  SECTION("a collapsing plastic column") {
+    // 16 steps of 2e-3 s (10 explicit steps): branches of the return map
+    // change between iterates, the stale factors precondition less well and
+    // are refreshed when a solve needs more than 30 Krylov iterations.
+    const std::string yaml = collapsing_column(2e-3);
+    const ColumnRun reused = run_column(yaml, 2e-3, 16, {}, PETSC_COMM_SELF);
+    const ColumnRun fresh = run_column(yaml, 2e-3, 16, {{"-talus_ksp_type", "preonly"}}, PETSC_COMM_SELF);
+    std::printf("collapsing column, 16 steps: reused factors: %ld Newton iterations, %ld factorizations; "
+                "fresh LU: %ld Newton iterations\n",
+                reused.newton, reused.factorizations, fresh.newton);
+    CHECK(reused.factorizations >= 1);
+    CHECK(4 * reused.factorizations <= reused.newton);  // measured: 4 factorizations, 59 iterations
+    CHECK(reused.linear_failures == 0);
+    // Each step ends at U <= 1e-8 on a problem with a unique solution: the
+    // stresses agree to the solver tolerance times the stiffness ratio
+    // (c_p h / dx)^2 ~ 10 (measured: 7e-13).
+    CHECK(max_relative_difference(reused.stress, fresh.stress) < 1e-6);
+  }
+  SECTION("a stale solve that does not converge is solved again on fresh factors") {
+    // One GMRES iteration allowed: a solve on stale factors stops
+    // unconverged. Its direction is not taken; the step is solved again from
+    // the same guess factoring every Jacobian (where one GMRES iteration on
+    // exact factors is an exact solve). No linear failure, no LU fallback,
+    // and the fresh-LU answer to round-off.
+    const std::string yaml = collapsing_column(2e-3);
+    const ColumnRun capped = run_column(yaml, 2e-3, 8, {{"-talus_ksp_max_it", "1"}}, PETSC_COMM_SELF);
+    const ColumnRun fresh = run_column(yaml, 2e-3, 8, {{"-talus_ksp_type", "preonly"}}, PETSC_COMM_SELF);
+    CHECK(capped.retries >= 1);
+    CHECK(capped.linear_failures == 0);
+    CHECK(capped.fallbacks == 0);
+    CHECK(max_relative_difference(capped.stress, fresh.stress) < 1e-10);
+  }
 }

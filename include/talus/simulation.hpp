@@ -34,6 +34,7 @@ struct RunSummary {
   double max_unbalance = 0;       // largest U of an accepted step (docs/solver.md#convergence)
   long structure_builds = 0;      // steps whose matrix and preconditioner structure was built anew
   long direct_fallbacks = 0;      // steps solved again by LU after a failed linear solve
+  long factorizations = 0;        // numeric LU factorizations with reused factors (docs/solver.md#reused-factorizations)
 };
 
 template <int dim>

@@ -66,7 +66,7 @@ int run_case(const talus::CaseConfig& config, const std::string& restart, int ra
               << ", \"transfer_seconds\": " << s.transfer_seconds << ", \"solve_seconds\": " << s.solve_seconds
               << ", \"contact_seconds\": " << s.contact_seconds << ", \"contact_points\": " << s.contact_points
               << ", \"max_unbalance\": " << s.max_unbalance << ", \"structure_builds\": " << s.structure_builds
-              << ", \"direct_fallbacks\": " << s.direct_fallbacks
+              << ", \"direct_fallbacks\": " << s.direct_fallbacks << ", \"factorizations\": " << s.factorizations
               << ", \"peak_rss_mb\": " << max_rss_mb << "}\n";
   return s.interrupted_by ? 128 + s.interrupted_by : 0;
 }

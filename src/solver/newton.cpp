@@ -1,6 +1,8 @@
 #include "talus/solver/newton.hpp"
 
+#include <cerrno>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 
 namespace talus {
@@ -9,12 +11,27 @@ namespace {
 
 template <int dim>
 PetscErrorCode form_residual(SNES, Vec v, Vec F, void* ctx) {
-  return petsc_callback([&] { static_cast<MomentumSystem<dim>*>(ctx)->residual(v, F); });
+  auto* context = static_cast<typename NewtonSolver<dim>::CallbackContext*>(ctx);
+  return petsc_callback([&] { context->system->residual(v, F); });
 }
 
+// The Jacobian, and in reused-factorization mode the choice of whether its
+// LU factors are computed: SNES reads its preconditioner lag after this
+// callback, so lag -2 factors this Jacobian (and sets the lag to -1), and
+// lag -1 keeps the factors of an earlier one for GMRES to precondition with.
 template <int dim>
-PetscErrorCode form_jacobian(SNES, Vec v, Mat J, Mat, void* ctx) {
-  return petsc_callback([&] { static_cast<MomentumSystem<dim>*>(ctx)->jacobian(v, J); });
+PetscErrorCode form_jacobian(SNES snes, Vec v, Mat J, Mat, void* ctx) {
+  auto* context = static_cast<typename NewtonSolver<dim>::CallbackContext*>(ctx);
+  PetscErrorCode ierr = petsc_callback([&] { context->system->jacobian(v, J); });
+  if (ierr) return ierr;
+  auto& factorization = *context->factorization;
+  if (!factorization.reused_mode) return 0;
+  factorization.fresh = factorization.refactor || factorization.always_fresh;
+  if (factorization.fresh) {
+    ++factorization.factorizations;
+    factorization.refactor = false;
+  }
+  return SNESSetLagPreconditioner(snes, factorization.fresh ? -2 : -1);
 }
 
 // The physical test (newton.hpp): U = ||F||_1 / S <= tolerance. F is in
@@ -49,12 +66,27 @@ PetscErrorCode physical_convergence(SNES snes, PetscInt it, PetscReal, PetscReal
 
 // After every linear solve: remember a KSP that did not converge. Not every
 // SNES type checks (PETSc 3.18's trust region uses the unconverged direction
-// as it is), so talus checks for all of them.
-PetscErrorCode record_linear_failure(KSP ksp, Vec, Vec, void* ctx) {
+// as it is), so talus checks for all of them. On stale LU factors (reused-
+// factorization mode) a slow solve makes the next Jacobian be factored
+// again, and an unfinished one stops the SNES (its direction is not taken:
+// a full step along it can land near another solution) and the step is
+// solved again with fresh factors at every iterate (NewtonSolver::solve).
+template <int dim>
+PetscErrorCode record_linear_solve(KSP ksp, Vec, Vec, void* ctx) {
+  auto* context = static_cast<typename NewtonSolver<dim>::CallbackContext*>(ctx);
   KSPConvergedReason reason;
   PetscErrorCode ierr = KSPGetConvergedReason(ksp, &reason);
   if (ierr) return ierr;
-  if (reason < 0) ++*static_cast<long*>(ctx);
+  PetscInt iterations = 0;
+  ierr = KSPGetIterationNumber(ksp, &iterations);
+  if (ierr) return ierr;
+  auto& factorization = *context->factorization;
+  if (factorization.reused_mode && !factorization.fresh) {
+    if (reason < 0 || iterations > factorization.stale_limit) factorization.refactor = true;
+    if (reason < 0) factorization.stale_failed = true;
+    return 0;
+  }
+  if (reason < 0) ++*context->linear_failures;
   return 0;
 }
 
@@ -74,6 +106,21 @@ template <int dim>
 NewtonSolver<dim>::NewtonSolver(MPI_Comm comm, PetscInt direct_limit, double balance_tolerance)
     : comm_(comm), direct_limit_(direct_limit) {
   scale_.tolerance = balance_tolerance;
+  // Read once, before the run writes anything.
+  factorization_.stale_limit = default_refactor_iterations;
+  char text[64] = "";
+  PetscBool given = PETSC_FALSE;
+  TALUS_PETSC(PetscOptionsGetString(nullptr, "talus_", "-refactor_iterations", text, sizeof text, &given));
+  if (given) {
+    // Parsed here (PETSc's own parser would fail as an internal error).
+    char* end = nullptr;
+    errno = 0;
+    const long value = std::strtol(text, &end, 10);
+    if (end == text || *end != '\0' || errno == ERANGE || value < 0 || value > 1000000)
+      throw InputError("PETSc option -talus_refactor_iterations: expected an integer in [0, 1000000], got '" +
+                       std::string(text) + "'");
+    factorization_.stale_limit = static_cast<PetscInt>(value);
+  }
 }
 
 template <int dim>
@@ -122,7 +169,13 @@ void NewtonSolver<dim>::configure(PetscInt unknowns) {
   TALUS_PETSC(SNESGetKSP(snes_, &ksp));
   TALUS_PETSC(KSPGetPC(ksp, &pc));
   if (unknowns <= direct_limit_) {
+    // GMRES preconditioned by LU factors that are kept while they work
+    // (docs/solver.md#reused-factorizations). Right preconditioning: the
+    // Krylov residual is the true one.
     configure_direct(ksp);
+    TALUS_PETSC(KSPSetType(ksp, KSPGMRES));
+    TALUS_PETSC(KSPSetPCSide(ksp, PC_RIGHT));
+    TALUS_PETSC(KSPSetTolerances(ksp, 1e-8, PETSC_DEFAULT, PETSC_DEFAULT, 50));
   } else {
     TALUS_PETSC(KSPSetType(ksp, KSPGMRES));
     TALUS_PETSC(KSPSetPCSide(ksp, PC_RIGHT));
@@ -154,6 +207,21 @@ void NewtonSolver<dim>::configure(PetscInt unknowns) {
   }
   // After the options: nobody replaces the physical test.
   TALUS_PETSC(SNESSetConvergenceTest(snes_, physical_convergence<dim>, &scale_, nullptr));
+  // Reused factorizations wherever an LU preconditions a Krylov method of the
+  // outer line-search Newton (not under preonly, where stale factors would
+  // change the Newton direction, nor inside a nonlinear preconditioner).
+  // Line-search Newton only: the trust region takes the stale solve's
+  // direction as it is and stalls on it.
+  PetscBool preonly = PETSC_FALSE, line_search = PETSC_FALSE;
+  TALUS_PETSC(PetscObjectTypeCompare(reinterpret_cast<PetscObject>(ksp), KSPPREONLY, &preonly));
+  TALUS_PETSC(PetscObjectTypeCompare(reinterpret_cast<PetscObject>(snes_), SNESNEWTONLS, &line_search));
+  factorization_.reused_mode = line_search && !preonly && solves_by_lu();
+  PetscBool ksp_chosen = PETSC_FALSE;
+  TALUS_PETSC(PetscOptionsHasName(nullptr, "talus_", "-ksp_type", &ksp_chosen));
+  // Without reuse the factors are always fresh and GMRES over them is one
+  // iteration of overhead: a plain LU solve, unless GMRES was asked for.
+  if (!factorization_.reused_mode && !accelerated && solves_by_lu() && !ksp_chosen)
+    TALUS_PETSC(KSPSetType(ksp, KSPPREONLY));
 }
 
 // Block AIJ (BAIJ, blocks of dim x dim) for a direct solve by PETSc's own LU
@@ -221,6 +289,8 @@ void NewtonSolver<dim>::build(MomentumSystem<dim>& system, PetscInt unknowns, bo
   // e.g. GAMG's coarse solver).
   TALUS_PETSC(SNESCreate(comm_, &snes_));
   forced_direct_ = direct;
+  factorization_.reused_mode = false;
+  factorization_.refactor = true;
   if (direct) {
     // The fallback after a failed linear solve: plain Newton with full steps
     // and an LU solve, whatever the options say.
@@ -245,15 +315,20 @@ template <int dim>
 NewtonReport NewtonSolver<dim>::run_snes(MomentumSystem<dim>& system) {
   NewtonReport report;
   Vec v = system.initial_guess();
-  TALUS_PETSC(SNESSetFunction(snes_, F_, form_residual<dim>, &system));
-  TALUS_PETSC(SNESSetJacobian(snes_, J_, J_, form_jacobian<dim>, &system));
+  context_.system = &system;
+  context_.factorization = &factorization_;
+  context_.scale = &scale_;
+  context_.linear_failures = &linear_failures_;
+  const long factorizations_before = factorization_.factorizations;
+  TALUS_PETSC(SNESSetFunction(snes_, F_, form_residual<dim>, &context_));
+  TALUS_PETSC(SNESSetJacobian(snes_, J_, J_, form_jacobian<dim>, &context_));
   std::vector<PetscReal> history(128);
   TALUS_PETSC(SNESSetConvergenceHistory(snes_, history.data(), nullptr, static_cast<PetscInt>(history.size()),
                                         PETSC_TRUE));
   KSP ksp;
   TALUS_PETSC(SNESGetKSP(solving_snes(), &ksp));
   linear_failures_ = 0;
-  TALUS_PETSC(KSPSetPostSolve(ksp, record_linear_failure, &linear_failures_));
+  TALUS_PETSC(KSPSetPostSolve(ksp, record_linear_solve<dim>, &context_));
   PetscInt linear_before = 0, linear_after = 0;
   TALUS_PETSC(KSPGetTotalIterations(ksp, &linear_before));
   TALUS_PETSC(SNESSolve(snes_, nullptr, v));
@@ -276,6 +351,7 @@ NewtonReport NewtonSolver<dim>::run_snes(MomentumSystem<dim>& system) {
   }
   report.unbalance = scale_.unbalance;
   report.linear_failures = linear_failures_;
+  report.factorizations = factorization_.factorizations - factorizations_before;
   if (!report.converged && linear_failures_ > 0) report.reason = SNESConvergedReasons[SNES_DIVERGED_LINEAR_SOLVE];
   if (report.converged) system.finish(v);
   TALUS_PETSC(VecDestroy(&v));
@@ -290,8 +366,24 @@ NewtonReport NewtonSolver<dim>::solve(MomentumSystem<dim>& system) {
   const PetscInt unknowns = system.active().global_count() * dim;
   const bool built = !same_unknowns(system);
   if (built) build(system, unknowns, false);
+  factorization_.always_fresh = false;
+  factorization_.stale_failed = false;
   NewtonReport report = run_snes(system);
   report.structure_built = built;
+  if (!report.converged && factorization_.stale_failed) {
+    // GMRES on stale factors did not converge: solve the step again from
+    // the same guess, factoring every Jacobian (docs/solver.md#reused-factorizations).
+    factorization_.always_fresh = true;
+    NewtonReport retry = run_snes(system);
+    factorization_.always_fresh = false;
+    factorization_.refactor = true;
+    retry.iterations += report.iterations;
+    retry.linear_iterations += report.linear_iterations;
+    retry.factorizations += report.factorizations;
+    retry.structure_built = built;
+    retry.fresh_retry = true;
+    report = retry;
+  }
   if (!report.converged && report.linear_failures > 0 && !solves_by_lu()) {
     // The preconditioner could not solve a Newton system: solve the step
     // again with a direct factorization before giving up on this h.

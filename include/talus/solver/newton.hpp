@@ -15,6 +15,13 @@
 // The SNES, the matrix, its preallocation and the KSP/PC (with a symbolic
 // factorization or an ILU/AMG structure) live across steps and are rebuilt
 // only when the unknowns (the active set) change.
+//
+// Below the direct limit the Newton systems are solved by GMRES
+// preconditioned with the LU factorization of an earlier Newton iterate
+// (docs/solver.md#reused-factorizations): the matrix is factored again only
+// when the stale factors no longer solve the system in a few Krylov
+// iterations, so most Newton iterations cost triangular solves instead of a
+// factorization.
 #include <petscsnes.h>
 
 #include <string>
@@ -34,6 +41,8 @@ struct NewtonReport {
   bool structure_built = false;        // matrix and KSP/PC built for this step (active set changed)
   bool direct_fallback = false;        // a linear solve failed and the step was solved again by LU
   long linear_failures = 0;            // linear solves that did not converge (the step is judged on U alone)
+  long factorizations = 0;             // numeric LU factorizations in this step (reused-factorization mode)
+  bool fresh_retry = false;            // solved again with fresh factors after a solve on stale ones failed
 };
 
 template <int dim>
@@ -62,6 +71,32 @@ class NewtonSolver {
     double unbalance = 0.0;  // U of the last tested iterate
   };
 
+  // The reused LU factorization (used by the Jacobian and KSP callbacks).
+  struct Factorization {
+    bool reused_mode = false;  // LU preconditioning a Krylov method: factors may be kept
+    bool refactor = true;      // factor the matrix at the next Jacobian
+    bool fresh = false;        // the factors in use were computed from the current Jacobian
+    bool always_fresh = false; // this solve factors every Jacobian (the retry after a stale failure)
+    bool stale_failed = false; // a solve on stale factors did not converge
+    PetscInt stale_limit = 0;  // more Krylov iterations than this on stale factors: factor again
+    long factorizations = 0;   // since construction
+  };
+  // Krylov iterations on stale LU factors above which the next Newton
+  // iteration factors the matrix again (docs/solver.md#reused-factorizations).
+  static constexpr PetscInt default_refactor_iterations = 30;
+  long factorizations() const { return factorization_.factorizations; }  // since construction
+  // The next step factors its first Jacobian, as a run restarted there would
+  // (called after every checkpoint).
+  void refactor_next_step() { factorization_.refactor = true; }
+
+  // What the SNES callbacks see.
+  struct CallbackContext {
+    MomentumSystem<dim>* system = nullptr;
+    Factorization* factorization = nullptr;
+    Scale* scale = nullptr;
+    long* linear_failures = nullptr;
+  };
+
  private:
   // Default solver, then the options database under the prefix talus_.
   void configure(PetscInt unknowns);
@@ -87,6 +122,8 @@ class NewtonSolver {
   std::vector<int> unknown_points_;     // the active set the structure was built for (this rank)
   PetscInt unknown_count_ = -1;         // global
   long linear_failures_ = 0;            // of the current SNESSolve
+  Factorization factorization_;
+  CallbackContext context_;
 };
 
 }  // namespace talus
