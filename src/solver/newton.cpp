@@ -102,6 +102,17 @@ void set_full_newton(SNES snes, PetscInt max_it) {
 
 }  // namespace
 
+// The report of a step solved again: the retry's outcome, with the work of
+// both attempts.
+static NewtonReport retried(const NewtonReport& first, NewtonReport retry) {
+  retry.iterations += first.iterations;
+  retry.linear_iterations += first.linear_iterations;
+  retry.factorizations += first.factorizations;
+  retry.structure_built = first.structure_built;
+  retry.fresh_retry = first.fresh_retry;
+  return retry;
+}
+
 template <int dim>
 NewtonSolver<dim>::NewtonSolver(MPI_Comm comm, PetscInt direct_limit, double balance_tolerance)
     : comm_(comm), direct_limit_(direct_limit) {
@@ -317,7 +328,6 @@ NewtonReport NewtonSolver<dim>::run_snes(MomentumSystem<dim>& system) {
   Vec v = system.initial_guess();
   context_.system = &system;
   context_.factorization = &factorization_;
-  context_.scale = &scale_;
   context_.linear_failures = &linear_failures_;
   const long factorizations_before = factorization_.factorizations;
   TALUS_PETSC(SNESSetFunction(snes_, F_, form_residual<dim>, &context_));
@@ -374,26 +384,18 @@ NewtonReport NewtonSolver<dim>::solve(MomentumSystem<dim>& system) {
     // GMRES on stale factors did not converge: solve the step again from
     // the same guess, factoring every Jacobian (docs/solver.md#reused-factorizations).
     factorization_.always_fresh = true;
-    NewtonReport retry = run_snes(system);
+    report = retried(report, run_snes(system));
     factorization_.always_fresh = false;
     factorization_.refactor = true;
-    retry.iterations += report.iterations;
-    retry.linear_iterations += report.linear_iterations;
-    retry.factorizations += report.factorizations;
-    retry.structure_built = built;
-    retry.fresh_retry = true;
-    report = retry;
+    report.fresh_retry = true;
   }
   if (!report.converged && report.linear_failures > 0 && !solves_by_lu()) {
     // The preconditioner could not solve a Newton system: solve the step
     // again with a direct factorization before giving up on this h.
     build(system, unknowns, true);
-    NewtonReport retry = run_snes(system);
-    retry.iterations += report.iterations;
-    retry.linear_iterations += report.linear_iterations;
-    retry.structure_built = true;
-    retry.direct_fallback = true;
-    report = retry;
+    report = retried(report, run_snes(system));
+    report.structure_built = true;
+    report.direct_fallback = true;
   }
   return report;
 }

@@ -93,7 +93,6 @@ class NewtonSolver {
   struct CallbackContext {
     MomentumSystem<dim>* system = nullptr;
     Factorization* factorization = nullptr;
-    Scale* scale = nullptr;
     long* linear_failures = nullptr;
   };
 
