@@ -86,3 +86,62 @@ TEST_CASE("large steps: a frictional psi = 0 column at 20x the explicit step", "
 TEST_CASE("large steps: a frictional associated column at 20x the explicit step", "[solver][large_steps]") {
   check_large_steps(30.0, "psi = phi");
 }
+
+namespace {
+
+// The coarse psi = 0 column on the Coulomb floor, advanced with full Newton
+// steps (the default) at 20x its explicit step for `steps` steps, or until a
+// step fails; the reports of all steps taken.
+std::vector<StepReport> column_steps(const char* stagnation_iterations, long steps) {
+  TALUS_PETSC(PetscOptionsSetValue(nullptr, "-talus_stagnation_iterations", stagnation_iterations));
+  const char* yaml =
+      "grid: {lower: [0, 0], upper: [1.0, 0.5], cell_size: 0.02}\n"
+      "time: {end: 1.0, step: 4e-3}\noutput: {enabled: false}\ngravity: [0, -9.81]\n"
+      "materials: [{name: sand, model: mohr_coulomb, density: 1800, youngs_modulus: 1.0e6,"
+      " poisson_ratio: 0.3, friction_angle: 30, dilatancy_angle: 0, cohesion: 100}]\n"
+      "bodies: [{name: column, material: sand, box: {lower: [0, 0], upper: [0.2, 0.4]},"
+      " particles_per_cell: 2}]\n"
+      "boundaries: {x_min: slip, x_max: slip, y_min: {condition: frictional, friction: 0.4}, y_max: slip}\n";
+  std::vector<StepReport> reports;
+  {
+    Simulation<2> sim(testing::case_from_yaml(yaml), PETSC_COMM_SELF);
+    while (static_cast<long>(reports.size()) < steps) {
+      reports.push_back(sim.advance(4e-3));
+      if (!reports.back().converged) break;
+    }
+  }
+  TALUS_PETSC(PetscOptionsClearValue(nullptr, "-talus_stagnation_iterations"));
+  return reports;
+}
+
+}  // namespace
+
+// Full semismooth Newton steps that stop reducing the unbalance U are
+// cycling between branches of the return map (docs/solver.md#stagnation):
+// the step fails as soon as U has had no new minimum for 6 iterations, not
+// after the 25 of the iteration limit, and nothing else changes: the
+// iterates are those of the run without the test, bit for bit.
+TEST_CASE("a cycling Newton step fails by stagnation, not at the iteration limit", "[solver][large_steps]") {
+  const std::vector<StepReport> stagnating = column_steps("6", 60);
+  REQUIRE_FALSE(stagnating.back().converged);
+  const std::size_t failed = stagnating.size() - 1;
+  const std::vector<StepReport> limited = column_steps("0", static_cast<long>(failed + 1));
+  REQUIRE(limited.size() == failed + 1);
+  // The steps before converge identically (they never stagnate).
+  for (std::size_t n = 0; n < failed; ++n) CHECK(limited[n].newton.unbalances == stagnating[n].newton.unbalances);
+  const NewtonReport& s = stagnating[failed].newton;
+  const NewtonReport& l = limited[failed].newton;
+  CHECK(s.reason == "STAGNATED");
+  const std::vector<double>& u = s.unbalances;
+  const auto best = std::min_element(u.begin(), u.end()) - u.begin();
+  std::printf("step %zu: U %.2e at iteration %ld, then no new minimum: stopped after %ld iterations; without the "
+              "test: %s after %ld\n",
+              failed, u[best], static_cast<long>(best), static_cast<long>(s.iterations), l.reason.c_str(),
+              static_cast<long>(l.iterations));
+  // Stopped exactly 6 iterations after the last new minimum, on the same
+  // iterates as the run without the test.
+  CHECK(static_cast<long>(u.size()) - 1 == best + 6);
+  CHECK(s.iterations == best + 6);
+  REQUIRE(l.unbalances.size() >= u.size());
+  for (std::size_t k = 0; k < u.size(); ++k) CHECK(u[k] == l.unbalances[k]);
+}

@@ -37,7 +37,12 @@ PetscErrorCode form_jacobian(SNES snes, Vec v, Mat J, Mat, void* ctx) {
 // The physical test (newton.hpp): U = ||F||_1 / S <= tolerance. F is in
 // impulse units on every row (momentum rows, m_i v_i = 0 on constrained
 // components, the natural map on contact rows), so ||F||_1 is the total
-// unbalanced impulse of the step. Divergence: NaN, or the iteration limit.
+// unbalanced impulse of the step. Divergence: NaN, the iteration limit, or
+// stagnation: no new smallest U for stagnation_window iterations. Full
+// semismooth Newton steps that have stopped reducing U are cycling between
+// branches of the return map or the cone (docs/solver.md#stagnation); they
+// did not recover in our runs, so the step is cut back at once instead of
+// after the iteration limit.
 template <int dim>
 PetscErrorCode physical_convergence(SNES snes, PetscInt it, PetscReal, PetscReal, PetscReal fnorm,
                                     SNESConvergedReason* reason, void* ctx) {
@@ -57,10 +62,19 @@ PetscErrorCode physical_convergence(SNES snes, PetscInt it, PetscReal, PetscReal
   PetscInt max_it = 0;
   ierr = SNESGetTolerances(snes, nullptr, nullptr, nullptr, &max_it, nullptr);
   if (ierr) return ierr;
+  scale->history.push_back(scale->unbalance);
+  if (it == 0 || scale->unbalance < scale->best) {
+    scale->best = scale->unbalance;
+    scale->best_iteration = it;
+  }
   if (scale->unbalance <= scale->tolerance)
     *reason = SNES_CONVERGED_FNORM_ABS;
   else if (it >= max_it)
     *reason = SNES_DIVERGED_MAX_IT;
+  else if (scale->stagnation_window > 0 && it - scale->best_iteration >= scale->stagnation_window) {
+    *reason = SNES_DIVERGED_DTOL;  // reported as "stagnated" (NewtonSolver::run_snes)
+    scale->stagnated = true;
+  }
   return 0;
 }
 
@@ -100,6 +114,23 @@ void set_full_newton(SNES snes, PetscInt max_it) {
   TALUS_PETSC(SNESLineSearchSetType(line_search, SNESLINESEARCHBASIC));
 }
 
+// A talus-specific count option -talus_<name> (an integer in [0, 1e6]),
+// read once, before the run writes anything. Parsed here: PETSc's own parser
+// would fail as an internal error instead of a clear input error.
+PetscInt count_option(const char* name, PetscInt fallback) {
+  char text[64] = "";
+  PetscBool given = PETSC_FALSE;
+  TALUS_PETSC(PetscOptionsGetString(nullptr, "talus_", (std::string("-") + name).c_str(), text, sizeof text, &given));
+  if (!given) return fallback;
+  char* end = nullptr;
+  errno = 0;
+  const long value = std::strtol(text, &end, 10);
+  if (end == text || *end != '\0' || errno == ERANGE || value < 0 || value > 1000000)
+    throw InputError("PETSc option -talus_" + std::string(name) + ": expected an integer in [0, 1000000], got '" +
+                     std::string(text) + "'");
+  return static_cast<PetscInt>(value);
+}
+
 }  // namespace
 
 // The report of a step solved again: the retry's outcome, with the work of
@@ -118,20 +149,8 @@ NewtonSolver<dim>::NewtonSolver(MPI_Comm comm, PetscInt direct_limit, double bal
     : comm_(comm), direct_limit_(direct_limit) {
   scale_.tolerance = balance_tolerance;
   // Read once, before the run writes anything.
-  factorization_.stale_limit = default_refactor_iterations;
-  char text[64] = "";
-  PetscBool given = PETSC_FALSE;
-  TALUS_PETSC(PetscOptionsGetString(nullptr, "talus_", "-refactor_iterations", text, sizeof text, &given));
-  if (given) {
-    // Parsed here (PETSc's own parser would fail as an internal error).
-    char* end = nullptr;
-    errno = 0;
-    const long value = std::strtol(text, &end, 10);
-    if (end == text || *end != '\0' || errno == ERANGE || value < 0 || value > 1000000)
-      throw InputError("PETSc option -talus_refactor_iterations: expected an integer in [0, 1000000], got '" +
-                       std::string(text) + "'");
-    factorization_.stale_limit = static_cast<PetscInt>(value);
-  }
+  factorization_.stale_limit = count_option("refactor_iterations", default_refactor_iterations);
+  scale_.stagnation_window = count_option("stagnation_iterations", default_stagnation_iterations);
 }
 
 template <int dim>
@@ -338,6 +357,8 @@ NewtonReport NewtonSolver<dim>::run_snes(MomentumSystem<dim>& system) {
   KSP ksp;
   TALUS_PETSC(SNESGetKSP(solving_snes(), &ksp));
   linear_failures_ = 0;
+  scale_.stagnated = false;
+  scale_.history.clear();
   TALUS_PETSC(KSPSetPostSolve(ksp, record_linear_solve<dim>, &context_));
   PetscInt linear_before = 0, linear_after = 0;
   TALUS_PETSC(KSPGetTotalIterations(ksp, &linear_before));
@@ -360,8 +381,10 @@ NewtonReport NewtonSolver<dim>::run_snes(MomentumSystem<dim>& system) {
     if (inner < 0) report.reason = SNESConvergedReasons[inner];
   }
   report.unbalance = scale_.unbalance;
+  report.unbalances = scale_.history;
   report.linear_failures = linear_failures_;
   report.factorizations = factorization_.factorizations - factorizations_before;
+  if (!report.converged && scale_.stagnated) report.reason = "STAGNATED";
   if (!report.converged && linear_failures_ > 0) report.reason = SNESConvergedReasons[SNES_DIVERGED_LINEAR_SOLVE];
   if (report.converged) system.finish(v);
   TALUS_PETSC(VecDestroy(&v));

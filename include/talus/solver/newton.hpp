@@ -10,7 +10,9 @@
 //
 // never on the ratio to the first residual. A linear solve that did not
 // converge fails the Newton iteration; the step is then solved again with a
-// direct LU factorization before it counts as failed (cut-back).
+// direct LU factorization before it counts as failed (cut-back). A Newton
+// iteration that has stopped reducing U (no new minimum for a few
+// iterations: it cycles between branches) fails the step at once.
 //
 // The SNES, the matrix, its preallocation and the KSP/PC (with a symbolic
 // factorization or an ILU/AMG structure) live across steps and are rebuilt
@@ -37,6 +39,7 @@ struct NewtonReport {
   PetscInt linear_iterations = 0;
   std::string reason;
   std::vector<double> residual_norms;  // ||F||_2 at every Newton iterate, the initial guess first
+  std::vector<double> unbalances;      // U at every Newton iterate of the last attempt, the initial guess first
   double unbalance = 0.0;              // U at the last iterate (docs/solver.md#convergence)
   bool structure_built = false;        // matrix and KSP/PC built for this step (active set changed)
   bool direct_fallback = false;        // a linear solve failed and the step was solved again by LU
@@ -69,6 +72,11 @@ class NewtonSolver {
     double impulse = 1.0;    // S
     double tolerance = 0.0;  // balance_tolerance
     double unbalance = 0.0;  // U of the last tested iterate
+    PetscInt stagnation_window = 0;  // > 0: fail when U has had no new minimum for this many iterations
+    double best = 0.0;               // smallest U of the current SNESSolve
+    PetscInt best_iteration = 0;     // where it was reached
+    bool stagnated = false;          // the current step failed by stagnation
+    std::vector<double> history;     // U at every iterate of the current SNESSolve
   };
 
   // The reused LU factorization (used by the Jacobian and KSP callbacks).
@@ -84,6 +92,10 @@ class NewtonSolver {
   // Krylov iterations on stale LU factors above which the next Newton
   // iteration factors the matrix again (docs/solver.md#reused-factorizations).
   static constexpr PetscInt default_refactor_iterations = 30;
+  // Newton iterations without a new smallest unbalance U after which the step
+  // fails (-talus_stagnation_iterations, 0: only the iteration limit;
+  // docs/solver.md#stagnation).
+  static constexpr PetscInt default_stagnation_iterations = 6;
   long factorizations() const { return factorization_.factorizations; }  // since construction
   // The next step factors its first Jacobian, as a run restarted there would
   // (called after every checkpoint).
