@@ -85,22 +85,17 @@ grep -q "bad.yaml:[0-9]*: materials\[0\].poisson_ratio = 0.7" bad.log || { echo 
 
 # A bad value of talus's own PETSc option: exit 2, named, no output.
 sed -e "s#directory: .*#directory: $work/bad_option_out#" "$repo/inputs/elastic_column.yaml" > bad_option.yaml
-set +e
-"$talus" run bad_option.yaml -talus_refactor_iterations 3x > bad_option.log 2>&1
-code=$?
-set -e
-[ "$code" -eq 2 ] || { echo "FAIL: exit code $code for -talus_refactor_iterations 3x (want 2)"; cat bad_option.log; exit 1; }
-grep -q "talus_refactor_iterations: expected an integer in \[0, 1000000\], got '3x'" bad_option.log ||
-  { echo "FAIL: message for -talus_refactor_iterations 3x"; cat bad_option.log; exit 1; }
-[ ! -e "$work/bad_option_out" ] || { echo "FAIL: a bad option wrote output"; exit 1; }
-set +e
-"$talus" run bad_option.yaml -talus_stagnation_iterations -1 > bad_option.log 2>&1
-code=$?
-set -e
-[ "$code" -eq 2 ] || { echo "FAIL: exit code $code for -talus_stagnation_iterations -1 (want 2)"; cat bad_option.log; exit 1; }
-grep -q "talus_stagnation_iterations: expected an integer in \[0, 1000000\], got '-1'" bad_option.log ||
-  { echo "FAIL: message for -talus_stagnation_iterations -1"; cat bad_option.log; exit 1; }
-[ ! -e "$work/bad_option_out" ] || { echo "FAIL: a bad option wrote output"; exit 1; }
+for bad in "refactor_iterations 3x" "stagnation_iterations -1"; do
+  set -- $bad
+  set +e
+  "$talus" run bad_option.yaml -talus_$1 "$2" > bad_option.log 2>&1
+  code=$?
+  set -e
+  [ "$code" -eq 2 ] || { echo "FAIL: exit code $code for -talus_$1 $2 (want 2)"; cat bad_option.log; exit 1; }
+  grep -q -- "talus_$1: expected an integer in \[0, 1000000\], got '$2'" bad_option.log ||
+    { echo "FAIL: message for -talus_$1 $2"; cat bad_option.log; exit 1; }
+  [ ! -e "$work/bad_option_out" ] || { echo "FAIL: a bad option wrote output"; exit 1; }
+done
 
 # A short run: .pvd, .pvtu and .vtu files, read back with VTK.
 sed -e "s#directory: .*#directory: $work/out#" -e 's/end: 0.5/end: 0.02/' \
