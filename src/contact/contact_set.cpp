@@ -67,6 +67,8 @@ std::vector<ContactPoint<dim>> find_contact_candidates(const Grid<dim>& grid, co
   if (obstacles.empty()) return contacts;
   std::vector<std::vector<double>> gaps;
   for (const Obstacle<dim>& o : obstacles) gaps.push_back(material_gaps(grid, particles, stencils, o, time));
+  // A point on a grid-aligned obstacle face has gap 0 up to round-off.
+  const double point_tolerance = 1e-9 * grid.cell_size();
   const auto& owned = active.owned_points();
   for (std::size_t k = 0; k < owned.size(); ++k) {
     const int i = owned[k];
@@ -84,6 +86,12 @@ std::vector<ContactPoint<dim>> find_contact_candidates(const Grid<dim>& grid, co
     for (std::size_t o = 0; o < obstacles.size(); ++o) {
       // The normal from the obstacle's surface next to the point; the gap of the material around it.
       ObstacleGap<dim> g = obstacles[o].gap(x, time);
+      // Only a point on or inside the obstacle carries its condition. The
+      // material's gap below says when contact closes; a point inside the
+      // material above a floor (quadratic B-splines: up to 1.5 cells up)
+      // would otherwise be held as if the floor were that thick, leaving the
+      // bottom rows of particles unloaded (docs/contact.md).
+      if (g.gap > point_tolerance) continue;
       g.gap = gaps[o][i];
       bool compatible = true;
       for (int c = 0; c < dim; ++c) compatible &= free[c] || std::abs(g.normal[c]) < 1e-12;
