@@ -295,7 +295,7 @@ TEST_CASE("A layer at rest on a frictional floor carries its weight down to the 
                           testing::gather_by_id(sim.particles(), field::position, 2));
   };
   const auto [slip, x] = layer("slip");
-  const auto [frictional, x_frictional] = layer("{condition: frictional, friction: 0.4}");
+  const std::vector<double> frictional = layer("{condition: frictional, friction: 0.4}").first;
   REQUIRE(slip.size() == frictional.size());
   const double scale = rho * g * H;
   double difference = 0.0, bottom_error = 0.0;
