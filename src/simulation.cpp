@@ -48,7 +48,7 @@ Simulation<dim>::Simulation(const CaseConfig& config, MPI_Comm comm) : config_(c
     gravity_[a] = config.gravity[a];
   }
   grid_ = std::make_unique<Grid<dim>>(comm, lo, hi, config.grid.cell_size, config.grid.shape);
-  particles_ = std::make_unique<Particles<dim>>(*grid_);
+  particles_ = std::make_unique<Particles<dim>>(comm);
   for (const auto& m : config.materials) materials_.push_back(m.law.get());
   for (const ObstacleConfig& o : config.obstacles) obstacles_.emplace_back(o);
   // A frictional face is a rigid half-plane on the face, its solid outside the grid.
@@ -85,6 +85,41 @@ Simulation<dim>::Simulation(const CaseConfig& config, MPI_Comm comm) : config_(c
   apply_case_petsc_options(config);
   newton_ = std::make_unique<NewtonSolver<dim>>(comm, config.solver.direct_solver_limit,
                                                 config.solver.balance_tolerance);
+  // Seeded on PETSc's even split of the box; now follow the particles.
+  balance_ranks(true);
+  rebalances_ = 0;  // the initial partition is not a re-partition during the run
+}
+
+template <int dim>
+bool Simulation<dim>::balance_ranks(bool always) {
+  int ranks = 1;
+  MPI_Comm_size(comm_, &ranks);
+  if (ranks == 1 || !config_.parallel.balance) return false;
+  const RankLoad now = rank_load(comm_, particles_->local_count());
+  if (!always && now.imbalance() <= config_.parallel.imbalance_limit) return false;
+  BalancedPartition<dim> best;
+  {
+    FieldView<PetscReal> x(particles_->swarm(), field::position);
+    best = balanced_partition(*grid_, x.data(), particles_->local_count());
+  }
+  // Only for a real gain, so that a distribution that no DMDA split can
+  // balance better is not re-partitioned at every step.
+  if (best.ownership[0].empty() || best.ownership == grid_->ownership() ||
+      static_cast<double>(best.load.max) > 0.95 * static_cast<double>(now.max))
+    return false;
+  repartition(best.ownership);
+  ++rebalances_;
+  return true;
+}
+
+template <int dim>
+void Simulation<dim>::repartition(const Ownership<dim>& ownership) {
+  auto grid = std::make_unique<Grid<dim>>(comm_, grid_->lower(), grid_->upper(), grid_->cell_size(), grid_->shape(),
+                                          &ownership);
+  particles_->migrate(*grid);
+  grid_ = std::move(grid);
+  // The Newton system's rows live on the grid's ranks: build it anew.
+  newton_->rebuild_next_step();
 }
 
 template <int dim>
@@ -155,7 +190,7 @@ StepReport Simulation<dim>::advance(double h) {
   }
   check_finite();
   keep_particles_inside();
-  particles_->migrate();
+  particles_->migrate(*grid_);
   report.transfer_seconds += seconds_since(t2);
   time_ += h;
   report.converged = true;
@@ -317,8 +352,40 @@ extern "C" void remember_signal(int signal) { pending_signal = signal; }
 
 template <int dim>
 void Simulation<dim>::restart(const std::string& checkpoint_path) {
+  // On the number of ranks that wrote it, the checkpoint's grid ownership
+  // comes back, so that every particle returns to its rank and the run
+  // continues bit for bit; on another number, the ranks are balanced anew.
+  const RunState header = read_run_state(checkpoint_path, comm_);
+  int ranks = 1;
+  MPI_Comm_size(comm_, &ranks);
+  const auto& stored = header.grid_ownership;
+  int stored_ranks = stored.size() == static_cast<std::size_t>(dim) ? 1 : 0;
+  for (const auto& axis : stored) stored_ranks *= static_cast<int>(axis.size());
+  const bool restore = stored_ranks == ranks;
+  if (restore) {
+    Ownership<dim> ownership;
+    for (int a = 0; a < dim; ++a) {
+      long sum = 0;
+      for (int n : stored[a]) {
+        if (n < grid_->stencil_width())
+          throw InputError(checkpoint_path + ": not a valid talus checkpoint: a process column of " +
+                           std::to_string(n) + " grid points in grid_ownership");
+        sum += n;
+      }
+      if (sum != grid_->points()[a])
+        throw InputError(checkpoint_path + ": the checkpoint's grid has " + std::to_string(sum) +
+                         " points along axis " + std::to_string(a) + ", this case's grid " +
+                         std::to_string(grid_->points()[a]));
+      ownership[a] = stored[a];
+    }
+    if (ownership != grid_->ownership()) repartition(ownership);
+  }
   resume_ = std::make_unique<RunState>(read_checkpoint(checkpoint_path, *particles_, *grid_, comm_));
   time_ = resume_->time;
+  if (!restore) {
+    balance_ranks(true);
+    rebalances_ = 0;
+  }
 }
 
 template <int dim>
@@ -379,7 +446,8 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
   const auto checkpoint = [&] {
     const StepController::State s = control.state();
     RunState state{time_, summary.steps, summary.cutbacks, s.step, s.patience, s.calm, s.since_growth, next_output,
-                   vtk ? vtk->entries() : std::vector<std::pair<double, std::string>>{}};
+                   vtk ? vtk->entries() : std::vector<std::pair<double, std::string>>{}, {}};
+    for (const auto& axis : grid_->ownership()) state.grid_ownership.push_back(axis);
     std::filesystem::create_directories(config_.checkpoint.directory);
     char name[64];
     std::snprintf(name, sizeof name, "checkpoint_%06ld.h5", summary.steps);
@@ -400,8 +468,17 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
       std::signal(SIGTERM, t);
     }
   } restore_signals{previous_int, previous_term};
+  const long rebalances_at_start = rebalances_;
   while (time_ < tc.end - eps) {
     const double h_try = std::min(control.step(), tc.end - time_);
+    // Balanced ranks: re-partition the grid when the particles have moved
+    // too far out of balance (docs/parallel.md).
+    const bool rebalanced = balance_ranks(false);
+    const RankLoad load = rank_load(comm_, particles_->local_count());
+    summary.worst_imbalance = std::max(summary.worst_imbalance, load.imbalance());
+    if (rebalanced && progress && rank == 0)
+      *progress << "  grid re-partitioned at t = " << time_ << ": particles per rank " << load.min << " to "
+                << load.max << "\n";
     StepReport r = advance(h_try);
     summary.newton_iterations += r.newton.iterations;
     summary.linear_iterations += r.newton.linear_iterations;
@@ -450,6 +527,8 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
       summary.interrupted_by = signal_any;
       if (config_.checkpoint.enabled) checkpoint();
       summary.wall_seconds = seconds_since(start);
+      summary.rebalances = rebalances_ - rebalances_at_start;
+      summary.final_load = rank_load(comm_, particles_->local_count());
       return summary;
     }
     if (config_.checkpoint.enabled && config_.checkpoint.interval > 0 &&
@@ -458,6 +537,8 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
   }
   if (config_.checkpoint.enabled) checkpoint();
   summary.wall_seconds = seconds_since(start);
+  summary.rebalances = rebalances_ - rebalances_at_start;
+  summary.final_load = rank_load(comm_, particles_->local_count());
   return summary;
 }
 

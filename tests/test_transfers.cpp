@@ -53,7 +53,7 @@ void check_conservation(ShapeKind kind, TransferScheme scheme, double flip_blend
   Vector<dim> lo = Vector<dim>::Zero(), hi;
   if constexpr (dim == 2) hi << 1.0, 0.8; else hi << 0.6, 0.5, 0.4;
   Grid<dim> grid(PETSC_COMM_WORLD, lo, hi, 0.1, kind);
-  Particles<dim> particles(grid);
+  Particles<dim> particles(grid.comm());
   BodyConfig bc;
   bc.box_lower.assign(dim, 0.0);
   bc.box_upper.assign(hi.data(), hi.data() + dim);
@@ -82,7 +82,7 @@ void check_conservation(ShapeKind kind, TransferScheme scheme, double flip_blend
       for (int a = 0; a < dim * dim; ++a) c[dim * dim * p + a] = 10.0 * hashed(k, 20 + a);
     }
   }
-  particles.migrate();
+  particles.migrate(grid);
   std::vector<Stencil<dim>> stencils;
   compute_stencils(grid, particles, stencils);
   GridFields<dim> fields;

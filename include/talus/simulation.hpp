@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "talus/grid/partition.hpp"
 #include "talus/io/checkpoint.hpp"
 #include "talus/io/config.hpp"
 #include "talus/io/vtk_output.hpp"
@@ -35,6 +36,12 @@ struct RunSummary {
   long structure_builds = 0;      // steps whose matrix and preconditioner structure was built anew
   long direct_fallbacks = 0;      // steps solved again by LU after a failed linear solve
   long factorizations = 0;        // numeric LU factorizations with reused factors (docs/solver.md#reused-factorizations)
+  // Balanced ranks (docs/parallel.md): grid re-partitions during the run, the
+  // largest max/mean particles per rank at the start of a step, and the
+  // particles per rank at the end.
+  long rebalances = 0;
+  double worst_imbalance = 1.0;
+  RankLoad final_load;
 };
 
 template <int dim>
@@ -54,6 +61,15 @@ class Simulation {
   // Continue from a checkpoint: particles, time, step control and output
   // series come from the file; run() then goes on to config.time.end.
   void restart(const std::string& checkpoint_path);
+
+  // Re-partitions the grid on the particles (docs/parallel.md) if
+  // parallel.balance is on, there are several ranks, and either `always` or
+  // max/mean particles per rank exceeds parallel.imbalance_limit; only if that
+  // lowers the largest rank's count by at least 5 %. Collective; returns
+  // whether it re-partitioned. The constructor and restart() call it with
+  // `always`, run() before every step.
+  bool balance_ranks(bool always);
+  long rebalances() const { return rebalances_; }
 
   double time() const { return time_; }
   const Grid<dim>& grid() const { return *grid_; }
@@ -85,6 +101,7 @@ class Simulation {
 
  private:
   void check_finite() const;
+  void repartition(const Ownership<dim>& ownership);
   void record_contact_forces(const MomentumSystem<dim>& system, double h);
   void keep_particles_inside();
   bool grid_output() const { return config_.output.enabled && config_.output.grid; }
@@ -115,6 +132,7 @@ class Simulation {
   double time_ = 0;
   std::unique_ptr<RunState> resume_;  // set by restart()
   PetscInt last_system_size_ = 0;
+  long rebalances_ = 0;
 };
 
 // Applies the case file's solver.petsc_options under the talus_ prefix,

@@ -46,6 +46,11 @@ int run_case(const talus::CaseConfig& config, const std::string& restart, int ra
               << " KSP iterations, " << s.outputs << " outputs";
     if (config.output.enabled) std::cout << " (" << config.output.directory << "/particles.pvd)";
     std::cout << "\n";
+    if (s.final_load.ranks > 1)
+      std::cout << "talus: " << s.final_load.ranks << " ranks, particles per rank at the end: " << s.final_load.min
+                << " to " << s.final_load.max << " (mean " << s.final_load.mean() << ", max/mean "
+                << s.final_load.imbalance() << "; worst during the run " << s.worst_imbalance << "), "
+                << s.rebalances << " re-partitions\n";
     if (s.interrupted_by)
       std::cout << "talus: stopped by signal " << s.interrupted_by << " at t = " << sim.time()
                 << (s.last_checkpoint.empty() ? std::string() : "; continue with --restart " + s.last_checkpoint)
@@ -67,6 +72,9 @@ int run_case(const talus::CaseConfig& config, const std::string& restart, int ra
               << ", \"contact_seconds\": " << s.contact_seconds << ", \"contact_points\": " << s.contact_points
               << ", \"max_unbalance\": " << s.max_unbalance << ", \"structure_builds\": " << s.structure_builds
               << ", \"direct_fallbacks\": " << s.direct_fallbacks << ", \"factorizations\": " << s.factorizations
+              << ", \"ranks\": " << s.final_load.ranks << ", \"rebalances\": " << s.rebalances
+              << ", \"worst_imbalance\": " << s.worst_imbalance << ", \"final_min_rank_particles\": "
+              << s.final_load.min << ", \"final_max_rank_particles\": " << s.final_load.max
               << ", \"peak_rss_mb\": " << max_rss_mb << "}\n";
   return s.interrupted_by ? 128 + s.interrupted_by : 0;
 }

@@ -10,7 +10,7 @@ namespace talus {
 
 template <int dim>
 Grid<dim>::Grid(MPI_Comm comm, const Vector<dim>& lower, const Vector<dim>& upper, double cell_size,
-                ShapeKind kind)
+                ShapeKind kind, const Ownership<dim>* ownership)
     : comm_(comm), kind_(kind), h_(cell_size), lower_(lower), upper_(upper) {
   for (int a = 0; a < dim; ++a) {
     cells_[a] = static_cast<int>(std::lround((upper[a] - lower[a]) / cell_size));
@@ -20,14 +20,35 @@ Grid<dim>::Grid(MPI_Comm comm, const Vector<dim>& lower, const Vector<dim>& uppe
     points_[a] = basis_count(kind, cells_[a]);
   }
   // Quadratic B-spline stencils reach two points beyond the particle's DMDA cell.
-  const PetscInt width = kind == ShapeKind::linear ? 1 : 2;
+  const PetscInt width = stencil_width();
+  const bool explicit_ranges = ownership && !(*ownership)[0].empty();
+  std::array<PetscInt, 3> procs{PETSC_DECIDE, PETSC_DECIDE, PETSC_DECIDE};
+  std::array<std::vector<PetscInt>, 3> counts;
+  if (explicit_ranges) {
+    int size = 1, ranks = 0;
+    MPI_Comm_size(comm, &ranks);
+    for (int a = 0; a < dim; ++a) {
+      const auto& own = (*ownership)[a];
+      int sum = 0;
+      for (int n : own) {
+        if (n < width) throw SimulationError("grid: a process column owns fewer points than the stencil width");
+        sum += n;
+      }
+      if (sum != points_[a]) throw SimulationError("grid: the ownership ranges do not cover the grid");
+      counts[a].assign(own.begin(), own.end());
+      procs[a] = static_cast<PetscInt>(own.size());
+      size *= static_cast<int>(own.size());
+    }
+    if (size != ranks) throw SimulationError("grid: the ownership ranges are for another number of ranks");
+  }
+  const auto ranges_of = [&](int a) { return explicit_ranges ? counts[a].data() : nullptr; };
   if constexpr (dim == 2) {
     TALUS_PETSC(DMDACreate2d(comm, DM_BOUNDARY_NONE, DM_BOUNDARY_NONE, DMDA_STENCIL_BOX, points_[0], points_[1],
-                             PETSC_DECIDE, PETSC_DECIDE, 1, width, nullptr, nullptr, &da_));
+                             procs[0], procs[1], 1, width, ranges_of(0), ranges_of(1), &da_));
   } else {
     TALUS_PETSC(DMDACreate3d(comm, DM_BOUNDARY_NONE, DM_BOUNDARY_NONE, DM_BOUNDARY_NONE, DMDA_STENCIL_BOX,
-                             points_[0], points_[1], points_[2], PETSC_DECIDE, PETSC_DECIDE, PETSC_DECIDE, 1,
-                             width, nullptr, nullptr, nullptr, &da_));
+                             points_[0], points_[1], points_[2], procs[0], procs[1], procs[2], 1, width,
+                             ranges_of(0), ranges_of(1), ranges_of(2), &da_));
   }
   TALUS_PETSC(DMSetUp(da_));
   const double offset = kind == ShapeKind::linear ? 0.0 : 0.5;
@@ -102,20 +123,45 @@ Vector<dim> Grid<dim>::point_position(const std::array<int, dim>& ijk) const {
 }
 
 template <int dim>
-PetscMPIInt Grid<dim>::owner_rank(const Vector<dim>& x) const {
+std::array<int, dim> Grid<dim>::owner_points(const Vector<dim>& x) const {
   // PETSc's DMDA point location gives DMDA cell k (between points k and k+1)
   // to the rank that owns point k+1; we follow the same rule.
-  int rank = 0, stride = 1;
+  std::array<int, dim> c;
   for (int a = 0; a < dim; ++a) {
     const double u = (x[a] - lower_[a]) / h_;
     int k = kind_ == ShapeKind::linear ? static_cast<int>(std::floor(u)) : static_cast<int>(std::floor(u + 0.5));
-    k = std::clamp(k, 0, points_[a] - 2);
-    const auto& ends = range_end_[a];
-    const int col = static_cast<int>(std::upper_bound(ends.begin(), ends.end(), k + 1) - ends.begin());
+    c[a] = std::clamp(k, 0, points_[a] - 2) + 1;
+  }
+  return c;
+}
+
+template <int dim>
+PetscMPIInt Grid<dim>::rank_of(const std::array<int, dim>& c, const std::array<std::vector<int>, dim>& ends) {
+  int rank = 0, stride = 1;
+  for (int a = 0; a < dim; ++a) {
+    const int col = static_cast<int>(std::upper_bound(ends[a].begin(), ends[a].end(), c[a]) - ends[a].begin());
     rank += stride * col;
-    stride *= procs_[a];
+    stride *= static_cast<int>(ends[a].size());
   }
   return rank;
+}
+
+template <int dim>
+PetscMPIInt Grid<dim>::owner_rank(const Vector<dim>& x) const {
+  return rank_of(owner_points(x), range_end_);
+}
+
+template <int dim>
+Ownership<dim> Grid<dim>::ownership() const {
+  Ownership<dim> own;
+  for (int a = 0; a < dim; ++a) {
+    int start = 0;
+    for (int end : range_end_[a]) {
+      own[a].push_back(end - start);
+      start = end;
+    }
+  }
+  return own;
 }
 
 template <int dim>

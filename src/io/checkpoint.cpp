@@ -158,6 +158,12 @@ void write_checkpoint(const std::string& path, const Particles<dim>& particles, 
     outputs.precision(17);
     for (const auto& [t, file_name] : state.outputs) outputs << t << ' ' << file_name << '\n';
     write_text_attribute(run.id, "outputs", outputs.str());
+    std::ostringstream ownership;  // one line per axis: points per process column
+    for (const auto& axis : state.grid_ownership) {
+      for (int n : axis) ownership << n << ' ';
+      ownership << '\n';
+    }
+    write_text_attribute(run.id, "grid_ownership", ownership.str());
   }
   // Every rank has closed the file; only then does it get its final name.
   MPI_Barrier(comm);
@@ -165,18 +171,21 @@ void write_checkpoint(const std::string& path, const Particles<dim>& particles, 
   MPI_Barrier(comm);
 }
 
-template <int dim>
-RunState read_checkpoint(const std::string& path, Particles<dim>& particles, const Grid<dim>& grid, MPI_Comm comm) {
+namespace {
+
+// The checkpoint file, opened for reading by all ranks of `comm`.
+hid_t open_checkpoint(const std::string& path, MPI_Comm comm) {
   if (!std::filesystem::exists(path)) throw InputError(path + ": no such checkpoint file");
-  int rank;
-  MPI_Comm_rank(comm, &rank);
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // errors become exceptions with our message
   Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, "file access list");
   check(H5Pset_fapl_mpio(fapl.id, comm, MPI_INFO_NULL), "MPI-IO driver");
   const hid_t file_id = H5Fopen(path.c_str(), H5F_ACC_RDONLY, fapl.id);
   if (file_id < 0) throw InputError(path + ": not an HDF5 checkpoint (cannot open it)");
-  Handle file(file_id, H5Fclose, "open");
-  const hid_t run_id = H5Gopen2(file.id, "run", H5P_DEFAULT);
+  return file_id;
+}
+
+RunState read_state(const std::string& path, hid_t file_id, int dim) {
+  const hid_t run_id = H5Gopen2(file_id, "run", H5P_DEFAULT);
   if (run_id < 0) throw InputError(path + ": not a talus checkpoint (no /run group)");
   Handle run(run_id, H5Gclose, "group run");
   const int file_dim = read_attribute<int>(run.id, "dimension", H5T_NATIVE_INT);
@@ -198,6 +207,36 @@ RunState read_checkpoint(const std::string& path, Particles<dim>& particles, con
     std::string name;
     while (in >> t >> name) state.outputs.emplace_back(t, name);
   }
+  if (H5Aexists(run.id, "grid_ownership") > 0) {
+    std::istringstream in(read_text_attribute(run.id, "grid_ownership"));
+    std::string line;
+    while (std::getline(in, line)) {
+      std::istringstream numbers(line);
+      std::vector<int> axis;
+      int n;
+      while (numbers >> n) axis.push_back(n);
+      if (!numbers.eof()) throw InputError(path + ": not a valid talus checkpoint: unreadable grid_ownership");
+      state.grid_ownership.push_back(axis);
+    }
+  }
+  return state;
+}
+
+}  // namespace
+
+RunState read_run_state(const std::string& path, MPI_Comm comm) {
+  Handle file(open_checkpoint(path, comm), H5Fclose, "open");
+  Handle run(H5Gopen2(file.id, "run", H5P_DEFAULT), H5Gclose, "group run");
+  const int file_dim = read_attribute<int>(run.id, "dimension", H5T_NATIVE_INT);
+  return read_state(path, file.id, file_dim);
+}
+
+template <int dim>
+RunState read_checkpoint(const std::string& path, Particles<dim>& particles, const Grid<dim>& grid, MPI_Comm comm) {
+  int rank;
+  MPI_Comm_rank(comm, &rank);
+  Handle file(open_checkpoint(path, comm), H5Fclose, "open");
+  const RunState state = read_state(path, file.id, dim);
 
   Handle group(H5Gopen2(file.id, "particles", H5P_DEFAULT), H5Gclose, "group particles");
   // Every rank reads each field whole and keeps the particles in its cells.

@@ -316,6 +316,14 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
     }
     s.finish();
   }
+  if (root.has("parallel")) {
+    YamlSection q = root.section("parallel");
+    c.parallel.balance = q.boolean("balance", true);
+    c.parallel.imbalance_limit = q.real("imbalance_limit", 1.2);
+    if (!(c.parallel.imbalance_limit >= 1.0 && c.parallel.imbalance_limit <= 1e6))
+      q.fail_value("imbalance_limit", "must be in [1, 1e6] (largest over mean particles per rank)");
+    q.finish();
+  }
   root.finish();
   return c;
 }

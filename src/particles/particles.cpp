@@ -5,15 +5,15 @@
 namespace talus {
 
 template <int dim>
-Particles<dim>::Particles(const Grid<dim>& grid) {
+Particles<dim>::Particles(MPI_Comm comm) {
   // Creation order matters (../shared/TOOLCHAIN.md): type, dimension, swarm
-  // type, cell DM, fields, finalize.
-  TALUS_PETSC(DMCreate(grid.comm(), &swarm_));
+  // type, fields, finalize.
+  TALUS_PETSC(DMCreate(comm, &swarm_));
   TALUS_PETSC(DMSetType(swarm_, DMSWARM));
   TALUS_PETSC(DMSetDimension(swarm_, dim));
-  TALUS_PETSC(DMSwarmSetType(swarm_, DMSWARM_PIC));
-  TALUS_PETSC(DMSwarmSetCellDM(swarm_, grid.dm()));
+  TALUS_PETSC(DMSwarmSetType(swarm_, DMSWARM_BASIC));
   TALUS_PETSC(DMSwarmInitializeFieldRegister(swarm_));
+  TALUS_PETSC(DMSwarmRegisterPetscDatatypeField(swarm_, field::position, dim, PETSC_REAL));
   TALUS_PETSC(DMSwarmRegisterPetscDatatypeField(swarm_, field::velocity, dim, PETSC_REAL));
   TALUS_PETSC(DMSwarmRegisterPetscDatatypeField(swarm_, field::affine_velocity, dim * dim, PETSC_REAL));
   TALUS_PETSC(DMSwarmRegisterPetscDatatypeField(swarm_, field::displacement, dim, PETSC_REAL));
@@ -58,18 +58,22 @@ PetscInt Particles<dim>::add(PetscInt n) {
 }
 
 template <int dim>
-void Particles<dim>::migrate() {
-  // PIC migration locates each particle in the cell DM (the grid's DMDA) and
-  // sends those that left the rank's cells to the neighbouring ranks. A
-  // particle that is found nowhere (it left the grid, or crossed more than a
-  // whole neighbouring subdomain in one step) would be dropped: refuse that.
+void Particles<dim>::migrate(const Grid<dim>& grid) {
+  // Basic migration pushes each particle to the rank in its DMSwarm_rank
+  // field. Grid::owner_rank clamps to the grid, so no particle can be lost;
+  // the count is checked all the same, as the invariant it is.
   const PetscInt before = global_count();
+  {
+    FieldView<PetscReal> x(swarm_, field::position);
+    FieldView<PetscInt> owner(swarm_, DMSwarmField_rank);
+    const PetscInt n = local_count();
+    for (PetscInt p = 0; p < n; ++p) owner[p] = grid.owner_rank(Eigen::Map<const Vector<dim>>(x.data() + dim * p));
+  }
   TALUS_PETSC(DMSwarmMigrate(swarm_, PETSC_TRUE));
   const PetscInt after = global_count();
   if (after != before)
     throw SimulationError("particle migration lost " + std::to_string(before - after) +
-                          " particles (they left the grid or moved farther than a neighbouring rank's subdomain "
-                          "in one step)");
+                          " particles");
 }
 
 template class Particles<2>;

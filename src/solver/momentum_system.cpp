@@ -301,6 +301,16 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
         slot[st.local[k]] = static_cast<int>(slot_point.size());
         slot_point.push_back(st.local[k]);
       }
+  // Every owned active point gets its whole preallocated block row (zeros
+  // where no particle couples), also where only another rank's particles
+  // touch it: that rank sees only the neighbours inside its own ghost region,
+  // and PETSc squeezes the slots a first assembly leaves unused, so a later
+  // step that reuses the matrix and fills them would need a new nonzero.
+  for (const int point : active_.owned_points())
+    if (slot[point] < 0) {
+      slot[point] = static_cast<int>(slot_point.size());
+      slot_point.push_back(point);
+    }
   std::vector<double> rows(slot_point.size() * dim * row_length, 0.0);
 
   const double scale = h_ * theta_ * theta_;

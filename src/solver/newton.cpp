@@ -304,7 +304,7 @@ bool NewtonSolver<dim>::same_unknowns(const MomentumSystem<dim>& system) const {
   // are functions of the active points alone (the pattern couples every pair
   // of active points within the shape functions' reach), so an identical
   // active set on every rank means an identical system structure.
-  int same = snes_ && reuse_ && !forced_direct_ && unknown_count_ == system.active().global_count() &&
+  int same = snes_ && reuse_ && !forced_direct_ && !stale_structure_ && unknown_count_ == system.active().global_count() &&
              unknown_points_ == system.active().owned_points();
   int all = 0;
   MPI_Allreduce(&same, &all, 1, MPI_INT, MPI_MIN, comm_);
@@ -315,6 +315,7 @@ template <int dim>
 void NewtonSolver<dim>::build(MomentumSystem<dim>& system, PetscInt unknowns, bool direct) {
   destroy();
   ++builds_;
+  stale_structure_ = false;
   // A fresh SNES (SNESReset leaves stale sizes inside some preconditioners,
   // e.g. GAMG's coarse solver).
   TALUS_PETSC(SNESCreate(comm_, &snes_));

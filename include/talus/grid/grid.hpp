@@ -7,9 +7,14 @@
 // at lower + (i - offset) h, offset = 1/2 for quadratic B-splines, so that the
 // DMDA cell k is centred on grid vertex k; ownership of particles follows
 // owner_rank(), which mirrors PETSc's DMDA point location.
+//
+// The points of each axis are split over the process columns of that axis
+// either evenly (PETSc's choice) or by explicit counts, which is how the
+// ranks are balanced on the particles (talus/grid/partition.hpp).
 #include <petscdmda.h>
 
 #include <array>
+#include <vector>
 
 #include "talus/core/types.hpp"
 #include "talus/shape/shape_functions.hpp"
@@ -18,10 +23,16 @@ namespace talus {
 
 enum class Face { x_min, x_max, y_min, y_max, z_min, z_max };
 
+// Grid points per process column along each axis (their sum is points()[a]).
+template <int dim>
+using Ownership = std::array<std::vector<int>, dim>;
+
 template <int dim>
 class Grid {
  public:
-  Grid(MPI_Comm comm, const Vector<dim>& lower, const Vector<dim>& upper, double cell_size, ShapeKind kind);
+  // Without `ownership` (or with an empty one) PETSc splits the points evenly.
+  Grid(MPI_Comm comm, const Vector<dim>& lower, const Vector<dim>& upper, double cell_size, ShapeKind kind,
+       const Ownership<dim>* ownership = nullptr);
   ~Grid();
   Grid(const Grid&) = delete;
   Grid& operator=(const Grid&) = delete;
@@ -48,6 +59,16 @@ class Grid {
 
   Vector<dim> point_position(const std::array<int, dim>& ijk) const;  // Greville point
   PetscMPIInt owner_rank(const Vector<dim>& x) const;
+  // The grid point along each axis that decides which process column owns a
+  // particle at x: k + 1 for the DMDA cell k (between points k and k + 1).
+  std::array<int, dim> owner_points(const Vector<dim>& x) const;
+  // Points per process column along each axis, as passed to the DMDA.
+  Ownership<dim> ownership() const;
+  // Rank owning a particle whose owner_points() are `c`, for process columns
+  // ending (exclusively) at `ends` along each axis.
+  static PetscMPIInt rank_of(const std::array<int, dim>& c, const std::array<std::vector<int>, dim>& ends);
+  // Smallest number of points a process column may own (the DMDA's stencil width).
+  int stencil_width() const { return kind_ == ShapeKind::linear ? 1 : 2; }
 
   // Shape-function stencil of a particle, with ghosted local indices filled in.
   void stencil(const Vector<dim>& x, Stencil<dim>& st) const;

@@ -7,7 +7,8 @@
 // the step count, the time-step controller and the output series. Restarting
 // reads every particle and keeps the ones whose cell this rank owns, so a run
 // can restart on any number of ranks; on the same number of ranks every
-// particle comes back to its rank in its order, and the restarted run repeats
+// particle comes back to its rank in its order (the grid's ownership ranges
+// are stored and restored, docs/parallel.md), and the restarted run repeats
 // the uninterrupted one bit for bit.
 #include <string>
 #include <utility>
@@ -28,7 +29,14 @@ struct RunState {
   // Output series: the next output time and the files written so far.
   double next_output = 0.0;
   std::vector<std::pair<double, std::string>> outputs;
+  // The grid's points per process column along each axis when the checkpoint
+  // was written (empty in checkpoints from before balanced ranks).
+  std::vector<std::vector<int>> grid_ownership;
 };
+
+// The /run attributes alone (all ranks), e.g. to restore the grid's
+// ownership before the particles are read.
+RunState read_run_state(const std::string& path, MPI_Comm comm);
 
 template <int dim>
 void write_checkpoint(const std::string& path, const Particles<dim>& particles, const RunState& state, MPI_Comm comm);

@@ -104,6 +104,14 @@ struct SolverConfig {
   std::vector<std::pair<std::string, std::string>> petsc_options;  // without the talus_ prefix
 };
 
+// Balanced ranks (docs/parallel.md): the grid's ownership follows the
+// particles at the start, after a restart on another number of ranks, and
+// whenever max/mean particles per rank exceeds imbalance_limit.
+struct ParallelConfig {
+  bool balance = true;
+  double imbalance_limit = 1.2;
+};
+
 struct CaseConfig {
   std::string source_file;
   int dim = 2;
@@ -121,6 +129,7 @@ struct CaseConfig {
   ContactConfig contact;
   TransferConfig transfer;
   SolverConfig solver;
+  ParallelConfig parallel;
 };
 
 // Reads and validates; throws InputError with file, line, key and value.

@@ -1,7 +1,12 @@
 #pragma once
-// Material points in a PETSc DMSwarm (type PIC) whose cell DM is the grid's
-// DMDA. Every per-particle quantity is a named swarm field, so that
-// DMSwarmMigrate carries all of them between ranks.
+// Material points in a PETSc DMSwarm. Every per-particle quantity is a named
+// swarm field, so that DMSwarmMigrate carries all of them between ranks.
+//
+// The swarm is of PETSc's basic type: migration sends each particle to the
+// rank named in its DMSwarm_rank field, which talus sets from the grid's
+// ownership (Grid::owner_rank). A PIC swarm would locate particles in its
+// cell DM and could only hand them to neighbouring ranks; after the grid is
+// re-partitioned (talus/grid/partition.hpp) a particle may belong to any rank.
 #include <petscdmswarm.h>
 
 #include <cstdint>
@@ -15,7 +20,7 @@ namespace talus {
 
 // Field names, in one place (also the array names of the VTK output).
 namespace field {
-inline constexpr const char* position = DMSwarmPICField_coor;       // dim
+inline constexpr const char* position = "position";                 // dim
 inline constexpr const char* velocity = "velocity";                 // dim
 inline constexpr const char* affine_velocity = "affine_velocity";   // dim x dim (APIC C_p), row-major
 inline constexpr const char* displacement = "displacement";         // dim
@@ -59,7 +64,7 @@ class FieldView {
 template <int dim>
 class Particles {
  public:
-  explicit Particles(const Grid<dim>& grid);
+  explicit Particles(MPI_Comm comm);
   ~Particles();
   Particles(const Particles&) = delete;
   Particles& operator=(const Particles&) = delete;
@@ -69,9 +74,9 @@ class Particles {
   PetscInt global_count() const;
   // Appends `n` particles on this rank and returns the index of the first.
   PetscInt add(PetscInt n);
-  // Sends particles that left this rank's cells to their new rank
+  // Sends every particle to the rank that owns its cell in `grid`
   // (DMSwarmMigrate); throws if the global count changes.
-  void migrate();
+  void migrate(const Grid<dim>& grid);
 
  private:
   DM swarm_ = nullptr;

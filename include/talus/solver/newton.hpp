@@ -100,6 +100,8 @@ class NewtonSolver {
   // The next step factors its first Jacobian, as a run restarted there would
   // (called after every checkpoint).
   void refactor_next_step() { factorization_.refactor = true; }
+  // The grid was re-partitioned: the next step builds its structure anew.
+  void rebuild_next_step() { stale_structure_ = true; }
 
   // What the SNES callbacks see.
   struct CallbackContext {
@@ -124,6 +126,7 @@ class NewtonSolver {
   MPI_Comm comm_;
   PetscInt direct_limit_;
   bool reuse_ = true;
+  bool stale_structure_ = false;
   long builds_ = 0;
   Scale scale_;
   SNES snes_ = nullptr;
