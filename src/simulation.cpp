@@ -91,11 +91,10 @@ Simulation<dim>::Simulation(const CaseConfig& config, MPI_Comm comm) : config_(c
 }
 
 template <int dim>
-bool Simulation<dim>::balance_ranks(bool always) {
-  int ranks = 1;
-  MPI_Comm_size(comm_, &ranks);
-  if (ranks == 1 || !config_.parallel.balance) return false;
+bool Simulation<dim>::balance_ranks(bool always, RankLoad* load) {
   const RankLoad now = rank_load(comm_, particles_->local_count());
+  if (load) *load = now;
+  if (now.ranks == 1 || !config_.parallel.balance) return false;
   if (!always && now.imbalance() <= config_.parallel.imbalance_limit) return false;
   BalancedPartition<dim> best;
   {
@@ -108,6 +107,7 @@ bool Simulation<dim>::balance_ranks(bool always) {
       static_cast<double>(best.load.max) > 0.95 * static_cast<double>(now.max))
     return false;
   repartition(best.ownership);
+  if (load) *load = best.load;  // the exact counts of the new split
   ++rebalances_;
   return true;
 }
@@ -473,8 +473,8 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
     const double h_try = std::min(control.step(), tc.end - time_);
     // Balanced ranks: re-partition the grid when the particles have moved
     // too far out of balance (docs/parallel.md).
-    const bool rebalanced = balance_ranks(false);
-    const RankLoad load = rank_load(comm_, particles_->local_count());
+    RankLoad load;
+    const bool rebalanced = balance_ranks(false, &load);
     summary.worst_imbalance = std::max(summary.worst_imbalance, load.imbalance());
     if (rebalanced && progress && rank == 0)
       *progress << "  grid re-partitioned at t = " << time_ << ": particles per rank " << load.min << " to "

@@ -11,9 +11,6 @@ using namespace talus;
 
 namespace {
 
-long local_particles(Simulation<2>& s) { return s.particles().local_count(); }
-long local_particles(Simulation<3>& s) { return s.particles().local_count(); }
-
 // Largest difference of positions (m) and of stresses (relative to the
 // largest stress) between two runs of the same case.
 template <int dim>
@@ -50,7 +47,7 @@ TEST_CASE("a body in one corner of a large box: every rank gets its share of par
   const int ranks = testing::comm_size(PETSC_COMM_WORLD);
   const CaseConfig config = testing::case_from_yaml(corner_block_2d);
   Simulation<2> balanced(config, PETSC_COMM_WORLD);
-  const RankLoad load = rank_load(PETSC_COMM_WORLD, local_particles(balanced));
+  const RankLoad load = rank_load(PETSC_COMM_WORLD, balanced.particles().local_count());
   INFO(ranks << " ranks: particles per rank " << load.min << " to " << load.max);
   CHECK(load.total == 576);  // 12 x 12 cells, 2 x 2 particles per cell
   // A rank owns the particles of whole grid points along each axis. With
@@ -67,7 +64,7 @@ TEST_CASE("a body in one corner of a large box: every rank gets its share of par
     CaseConfig even = config;
     even.parallel.balance = false;
     Simulation<2> unbalanced(even, PETSC_COMM_WORLD);
-    CHECK(rank_load(PETSC_COMM_WORLD, local_particles(unbalanced)).min == 0);
+    CHECK(rank_load(PETSC_COMM_WORLD, unbalanced.particles().local_count()).min == 0);
   }
 }
 
@@ -117,7 +114,7 @@ TEST_CASE("3D: a block in one corner, balanced, equals the serial run", "[balanc
       "boundaries: {z_min: slip}\n";
   const CaseConfig config = testing::case_from_yaml(yaml);
   Simulation<3> parallel(config, PETSC_COMM_WORLD);
-  const RankLoad load = rank_load(PETSC_COMM_WORLD, local_particles(parallel));
+  const RankLoad load = rank_load(PETSC_COMM_WORLD, parallel.particles().local_count());
   INFO("particles per rank " << load.min << " to " << load.max);
   CHECK(load.total == 1024);  // 8 x 4 x 4 cells, 2 x 2 x 2 particles per cell
   // The target of the balancing (issue 11): no rank below 40 % of the mean.

@@ -67,8 +67,9 @@ class Simulation {
   // max/mean particles per rank exceeds parallel.imbalance_limit; only if that
   // lowers the largest rank's count by at least 5 %. Collective; returns
   // whether it re-partitioned. The constructor and restart() call it with
-  // `always`, run() before every step.
-  bool balance_ranks(bool always);
+  // `always`, run() before every step. With `load`, stores there the
+  // particles per rank after the call.
+  bool balance_ranks(bool always, RankLoad* load = nullptr);
   long rebalances() const { return rebalances_; }
 
   double time() const { return time_; }

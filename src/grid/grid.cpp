@@ -72,7 +72,6 @@ Grid<dim>::Grid(MPI_Comm comm, const Vector<dim>& lower, const Vector<dim>& uppe
     own_size_[a] = m[a];
     ghost_start_[a] = gs[a];
     ghost_size_[a] = gm[a];
-    procs_[a] = p[a];
     int end = 0;
     for (int q = 0; q < p[a]; ++q) range_end_[a].push_back(end += ranges[a][q]);
   }

@@ -81,7 +81,6 @@ class Grid {
   Vector<dim> lower_, upper_;
   std::array<int, dim> cells_{}, points_{};
   std::array<int, dim> own_start_{}, own_size_{}, ghost_start_{}, ghost_size_{};
-  std::array<int, dim> procs_{};
   std::array<std::vector<int>, dim> range_end_;  // exclusive end of each process column's points
 };
 
