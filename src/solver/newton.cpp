@@ -26,7 +26,7 @@ PetscErrorCode form_jacobian(SNES snes, Vec v, Mat J, Mat, void* ctx) {
   if (ierr) return ierr;
   auto& factorization = *context->factorization;
   if (!factorization.reused_mode) return 0;
-  factorization.fresh = factorization.refactor || factorization.always_fresh;
+  factorization.fresh = factorization.refactor;
   if (factorization.fresh) {
     ++factorization.factorizations;
     factorization.refactor = false;
@@ -67,7 +67,9 @@ PetscErrorCode physical_convergence(SNES snes, PetscInt it, PetscReal, PetscReal
     scale->best = scale->unbalance;
     scale->best_iteration = it;
   }
-  if (scale->unbalance <= scale->tolerance)
+  if (scale->linear_failures && *scale->linear_failures > 0)
+    *reason = SNES_DIVERGED_LINEAR_SOLVE;  // the iterate followed an unsolved system
+  else if (scale->unbalance <= scale->tolerance)
     *reason = SNES_CONVERGED_FNORM_ABS;
   else if (it >= max_it)
     *reason = SNES_DIVERGED_MAX_IT;
@@ -97,21 +99,59 @@ PetscErrorCode record_linear_solve(KSP ksp, Vec, Vec, void* ctx) {
   auto& factorization = *context->factorization;
   if (factorization.reused_mode && !factorization.fresh) {
     if (reason < 0 || iterations > factorization.stale_limit) factorization.refactor = true;
-    if (reason < 0) factorization.stale_failed = true;
+    if (reason < 0) {
+      factorization.resolve = true;  // solved again on fresh factors before the line search
+    }
     return 0;
   }
   if (reason < 0) ++*context->linear_failures;
   return 0;
 }
 
-// Newton with full steps and at most max_it iterations; tolerances other
-// than max_it are left to the physical test.
-void set_full_newton(SNES snes, PetscInt max_it) {
+// Before the line search of a Newton iteration whose solve on stale LU factors
+// did not converge: factor the current Jacobian and solve the same system
+// again, so the iteration goes on along the fresh-LU direction instead of
+// restarting the whole step (docs/solver.md#reused-factorizations). The
+// fresh factors are then kept for the following iterations. A fresh solve
+// that fails counts as a failed linear solve (the convergence test stops the
+// SNES after this iteration; its update is discarded with the step).
+template <int dim>
+PetscErrorCode resolve_on_fresh_factors(SNESLineSearch line_search, Vec, Vec direction, PetscBool* changed,
+                                        void* ctx) {
+  *changed = PETSC_FALSE;
+  auto* context = static_cast<typename NewtonSolver<dim>::CallbackContext*>(ctx);
+  auto& factorization = *context->factorization;
+  if (!factorization.resolve) return 0;
+  factorization.resolve = false;
+  SNES snes;
+  KSP ksp;
+  Vec F;
+  PetscCall(SNESLineSearchGetSNES(line_search, &snes));
+  PetscCall(SNESGetKSP(snes, &ksp));
+  PetscCall(SNESGetFunction(snes, &F, nullptr, nullptr));
+  // The PC's matrix changed since its factors were computed, so PCSetUp
+  // factors it again once reuse is off.
+  PetscCall(KSPSetReusePreconditioner(ksp, PETSC_FALSE));
+  factorization.fresh = true;
+  factorization.refactor = false;
+  ++factorization.factorizations;
+  ++factorization.resolves;
+  PetscCall(KSPSolve(ksp, F, direction));  // counted in KSPGetTotalIterations
+  // Keep these factors for the next Jacobians (SNES sets the flag again at
+  // every Jacobian from its lag; -1 means reuse).
+  PetscCall(KSPSetReusePreconditioner(ksp, PETSC_TRUE));
+  *changed = PETSC_TRUE;
+  return 0;
+}
+
+// Newton with at most max_it iterations and the given line search; tolerances
+// other than max_it are left to the physical test.
+void set_newton(SNES snes, PetscInt max_it, SNESLineSearchType line_search_type) {
   TALUS_PETSC(SNESSetType(snes, SNESNEWTONLS));
   TALUS_PETSC(SNESSetTolerances(snes, 0.0, 0.0, 0.0, max_it, PETSC_DEFAULT));
   SNESLineSearch line_search;
   TALUS_PETSC(SNESGetLineSearch(snes, &line_search));
-  TALUS_PETSC(SNESLineSearchSetType(line_search, SNESLINESEARCHBASIC));
+  TALUS_PETSC(SNESLineSearchSetType(line_search, line_search_type));
 }
 
 // A talus-specific count option -talus_<name> (an integer in [0, 1e6]),
@@ -140,7 +180,6 @@ static NewtonReport retried(const NewtonReport& first, NewtonReport retry) {
   retry.linear_iterations += first.linear_iterations;
   retry.factorizations += first.factorizations;
   retry.structure_built = first.structure_built;
-  retry.fresh_retry = first.fresh_retry;
   return retry;
 }
 
@@ -184,16 +223,20 @@ void NewtonSolver<dim>::configure(PetscInt unknowns) {
   // Defaults are set on the objects, then SNESSetFromOptions lets the options
   // database (command line, case file) override any of them.
   //
-  // Default: Newton with full steps, LU below the direct limit, GMRES +
-  // GAMG above it. At large steps full steps cycle between branches of the
-  // return map (docs/solver.md#large-steps); a trust region
-  // (-talus_snes_type newtontr) avoids most of the cut-backs but is not yet
-  // the default: a 2-rank contact test failed a step with it in CI.
+  // Default: Newton with a backtracking line search, LU below the direct
+  // limit, GMRES + GAMG above it. At large steps full steps cycle between
+  // branches of the return map and cut the step back tens of times per
+  // second of flow (docs/solver.md#large-steps); the line search removes
+  // nearly all of those cut-backs. A trust region (-talus_snes_type newtontr)
+  // does too, but a 2-rank contact test failed a step with it in CI.
   // Nonlinear GMRES over an inexact Newton step (-talus_snes_type ngmres,
   // configured below) is faster, but its serial and parallel runs of a
   // contact case differ by more than the solver tolerance.
   TALUS_PETSC(SNESSetOptionsPrefix(snes_, "talus_"));
-  set_full_newton(snes_, 25);
+  // Backtracking on the merit ||F||^2 (Armijo): the full Newton step when it
+  // reduces the residual enough, a shorter one when it would cross a kink
+  // of the return map or the cone and land far beyond (docs/solver.md#large-steps).
+  set_newton(snes_, 25, SNESLINESEARCHBT);
   KSP ksp;
   PC pc;
   TALUS_PETSC(SNESGetKSP(snes_, &ksp));
@@ -222,7 +265,7 @@ void NewtonSolver<dim>::configure(PetscInt unknowns) {
     // iteration corrects it) with ILU, or GAMG above the direct limit.
     SNES newton;
     TALUS_PETSC(SNESGetNPC(snes_, &newton));
-    set_full_newton(newton, 1);
+    set_newton(newton, 1, SNESLINESEARCHBASIC);
     KSP inner;
     PC inner_pc;
     TALUS_PETSC(SNESGetKSP(newton, &inner));
@@ -323,10 +366,10 @@ void NewtonSolver<dim>::build(MomentumSystem<dim>& system, PetscInt unknowns, bo
   factorization_.reused_mode = false;
   factorization_.refactor = true;
   if (direct) {
-    // The fallback after a failed linear solve: plain Newton with full steps
-    // and an LU solve, whatever the options say.
+    // The fallback after a failed linear solve: Newton with the default
+    // line search and an LU solve, whatever the options say.
     TALUS_PETSC(SNESSetOptionsPrefix(snes_, "talus_fallback_"));
-    set_full_newton(snes_, 25);
+    set_newton(snes_, 25, SNESLINESEARCHBT);
     KSP ksp;
     TALUS_PETSC(SNESGetKSP(snes_, &ksp));
     configure_direct(ksp);
@@ -361,6 +404,16 @@ NewtonReport NewtonSolver<dim>::run_snes(MomentumSystem<dim>& system) {
   scale_.stagnated = false;
   scale_.history.clear();
   TALUS_PETSC(KSPSetPostSolve(ksp, record_linear_solve<dim>, &context_));
+  scale_.linear_failures = &linear_failures_;
+  const long resolves_before = factorization_.resolves;
+  if (factorization_.reused_mode) {
+    // A solve on stale factors that did not converge is solved again on
+    // fresh ones before the line search, so SNES must not stop at it.
+    SNESLineSearch line_search;
+    TALUS_PETSC(SNESGetLineSearch(snes_, &line_search));
+    TALUS_PETSC(SNESLineSearchSetPreCheck(line_search, resolve_on_fresh_factors<dim>, &context_));
+    TALUS_PETSC(SNESSetMaxLinearSolveFailures(snes_, PETSC_MAX_INT));
+  }
   PetscInt linear_before = 0, linear_after = 0;
   TALUS_PETSC(KSPGetTotalIterations(ksp, &linear_before));
   TALUS_PETSC(SNESSolve(snes_, nullptr, v));
@@ -385,6 +438,7 @@ NewtonReport NewtonSolver<dim>::run_snes(MomentumSystem<dim>& system) {
   report.unbalances = scale_.history;
   report.linear_failures = linear_failures_;
   report.factorizations = factorization_.factorizations - factorizations_before;
+  report.fresh_resolves = factorization_.resolves - resolves_before;
   if (!report.converged && scale_.stagnated) report.reason = "STAGNATED";
   if (!report.converged && linear_failures_ > 0) report.reason = SNESConvergedReasons[SNES_DIVERGED_LINEAR_SOLVE];
   if (report.converged) system.finish(v);
@@ -400,19 +454,8 @@ NewtonReport NewtonSolver<dim>::solve(MomentumSystem<dim>& system) {
   const PetscInt unknowns = system.active().global_count() * dim;
   const bool built = !same_unknowns(system);
   if (built) build(system, unknowns, false);
-  factorization_.always_fresh = false;
-  factorization_.stale_failed = false;
   NewtonReport report = run_snes(system);
   report.structure_built = built;
-  if (!report.converged && factorization_.stale_failed) {
-    // GMRES on stale factors did not converge: solve the step again from
-    // the same guess, factoring every Jacobian (docs/solver.md#reused-factorizations).
-    factorization_.always_fresh = true;
-    report = retried(report, run_snes(system));
-    factorization_.always_fresh = false;
-    factorization_.refactor = true;
-    report.fresh_retry = true;
-  }
   if (!report.converged && report.linear_failures > 0 && !solves_by_lu()) {
     // The preconditioner could not solve a Newton system: solve the step
     // again with a direct factorization before giving up on this h.

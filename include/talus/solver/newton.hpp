@@ -45,7 +45,7 @@ struct NewtonReport {
   bool direct_fallback = false;        // a linear solve failed and the step was solved again by LU
   long linear_failures = 0;            // linear solves that did not converge (the step is judged on U alone)
   long factorizations = 0;             // numeric LU factorizations in this step (reused-factorization mode)
-  bool fresh_retry = false;            // solved again with fresh factors after a solve on stale ones failed
+  long fresh_resolves = 0;             // Newton systems solved again on fresh factors after stale ones failed
 };
 
 template <int dim>
@@ -77,6 +77,7 @@ class NewtonSolver {
     PetscInt best_iteration = 0;     // where it was reached
     bool stagnated = false;          // the current step failed by stagnation
     std::vector<double> history;     // U at every iterate of the current SNESSolve
+    const long* linear_failures = nullptr;  // failed linear solves of the current SNESSolve: diverged
   };
 
   // The reused LU factorization (used by the Jacobian and KSP callbacks).
@@ -84,8 +85,8 @@ class NewtonSolver {
     bool reused_mode = false;  // LU preconditioning a Krylov method: factors may be kept
     bool refactor = true;      // factor the matrix at the next Jacobian
     bool fresh = false;        // the factors in use were computed from the current Jacobian
-    bool always_fresh = false; // this solve factors every Jacobian (the retry after a stale failure)
-    bool stale_failed = false; // a solve on stale factors did not converge
+    bool resolve = false;      // the last solve on stale factors did not converge: solve it again, fresh
+    long resolves = 0;         // since construction
     PetscInt stale_limit = 0;  // more Krylov iterations than this on stale factors: factor again
     long factorizations = 0;   // since construction
   };
