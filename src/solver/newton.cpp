@@ -26,11 +26,8 @@ PetscErrorCode form_jacobian(SNES snes, Vec v, Mat J, Mat, void* ctx) {
   if (ierr) return ierr;
   auto& factorization = *context->factorization;
   if (!factorization.reused_mode) return 0;
-  factorization.fresh = factorization.refactor;
-  if (factorization.fresh) {
-    ++factorization.factorizations;
-    factorization.refactor = false;
-  }
+  factorization.fresh = false;
+  if (factorization.refactor) factorization.factor_now();
   return SNESSetLagPreconditioner(snes, factorization.fresh ? -2 : -1);
 }
 
@@ -99,9 +96,7 @@ PetscErrorCode record_linear_solve(KSP ksp, Vec, Vec, void* ctx) {
   auto& factorization = *context->factorization;
   if (factorization.reused_mode && !factorization.fresh) {
     if (reason < 0 || iterations > factorization.stale_limit) factorization.refactor = true;
-    if (reason < 0) {
-      factorization.resolve = true;  // solved again on fresh factors before the line search
-    }
+    if (reason < 0) factorization.resolve = true;  // solved again on fresh factors before the line search
     return 0;
   }
   if (reason < 0) ++*context->linear_failures;
@@ -132,9 +127,7 @@ PetscErrorCode resolve_on_fresh_factors(SNESLineSearch line_search, Vec, Vec dir
   // The PC's matrix changed since its factors were computed, so PCSetUp
   // factors it again once reuse is off.
   PetscCall(KSPSetReusePreconditioner(ksp, PETSC_FALSE));
-  factorization.fresh = true;
-  factorization.refactor = false;
-  ++factorization.factorizations;
+  factorization.factor_now();
   ++factorization.resolves;
   PetscCall(KSPSolve(ksp, F, direction));  // counted in KSPGetTotalIterations
   // Keep these factors for the next Jacobians (SNES sets the flag again at

@@ -89,6 +89,12 @@ class NewtonSolver {
     long resolves = 0;         // since construction
     PetscInt stale_limit = 0;  // more Krylov iterations than this on stale factors: factor again
     long factorizations = 0;   // since construction
+    // The current Jacobian is factored now: its factors are fresh and kept.
+    void factor_now() {
+      fresh = true;
+      refactor = false;
+      ++factorizations;
+    }
   };
   // Krylov iterations on stale LU factors above which the next Newton
   // iteration factors the matrix again (docs/solver.md#reused-factorizations).
