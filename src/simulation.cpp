@@ -454,9 +454,10 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
     summary.last_checkpoint = config_.checkpoint.directory + "/" + name;
     write_checkpoint(summary.last_checkpoint, *particles_, state, comm_);
     if (progress && rank == 0) *progress << "  checkpoint " << summary.last_checkpoint << "\n";
-    // A restart from here starts with fresh LU factors; so does this run, so
-    // that both continue bit for bit (docs/checkpoints.md).
-    newton_->refactor_next_step();
+    // A restart from here builds its solver anew (matrix, KSP/PC, LU factors,
+    // the inexact-Newton state); so does this run, so that both continue bit
+    // for bit (docs/checkpoints.md).
+    newton_->rebuild_next_step();
   };
   pending_signal = 0;
   const auto previous_int = std::signal(SIGINT, remember_signal);

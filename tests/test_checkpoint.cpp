@@ -1,7 +1,14 @@
 // HDF5 checkpoints: run 2N steps; run N steps, checkpoint, restart in a new
 // simulation and run N more. On the same number of ranks every particle comes
-// back to its rank in its order, so the two runs must agree bit for bit; the
-// test allows 1e-12 relative (round-off) and reports the largest difference.
+// back to its rank in its order. In serial the two runs must agree bit for
+// bit; the test allows 1e-12 relative (round-off) and reports the largest
+// difference. On several ranks the parallel LU (MUMPS) adds contributions in
+// the order its messages arrive, so two identical runs already differ in
+// round-off (1e-16 after 32 steps of this case), and inexact Newton's stopping
+// decisions carry that up to the solver tolerance: there the runs must agree
+// to the balance tolerance 1e-8 times the stiffness ratio (c_p h / dx)^2 ~ 10
+// with a factor 10 to spare, 1e-6 (measured in 4 runs: at most 1.1e-7 on the
+// separation strain, 2e-8 on the stress).
 // A plastic, collapsing column is used so that the material state, the
 // Kirchhoff stress, the voids and the step controller all matter.
 #include <catch2/catch.hpp>
@@ -14,11 +21,12 @@ using namespace talus;
 
 namespace {
 
-std::string column(double end, const std::string& directory) {
+// interval > 0: also a checkpoint every `interval` steps.
+std::string column(double end, const std::string& directory, long interval = 0) {
   return "grid: {lower: [0, 0], upper: [3.0, 1.2], cell_size: 0.05}\n"
          "time: {end: " + std::to_string(end) + ", step: 0.00390625}\n"
          "output: {enabled: false}\n"
-         "checkpoint: {enabled: true, directory: " + directory + "}\n"
+         "checkpoint: {enabled: true, interval: " + std::to_string(interval) + ", directory: " + directory + "}\n"
          "gravity: [0, -9.81]\n"
          "materials: [{name: sand, model: drucker_prager, density: 2000, youngs_modulus: 1.0e6, poisson_ratio: 0.3,\n"
          "             friction_angle: 30, dilatancy_angle: 0, cohesion: 0}]\n"
@@ -40,11 +48,16 @@ TEST_CASE("a run restarted from a checkpoint repeats the uninterrupted run", "[c
   if (rank == 0) std::filesystem::remove_all(dir);
   MPI_Barrier(PETSC_COMM_WORLD);
 
-  Simulation<2> whole(testing::case_from_yaml(column(0.25, dir + "/whole")), PETSC_COMM_WORLD);
-  const RunSummary w = whole.run(nullptr);
   Simulation<2> first(testing::case_from_yaml(column(0.125, dir + "/first")), PETSC_COMM_WORLD);
   const RunSummary f = first.run(nullptr);
   REQUIRE(std::filesystem::exists(f.last_checkpoint));
+  // The uninterrupted run writes the same checkpoint on its way: the solver
+  // (its LU factors, the inexact-Newton state) is not saved, so after every
+  // checkpoint a run builds it anew, as the restarted run must
+  // (docs/checkpoints.md). Without that the two runs would make different
+  // linear solves and agree only to the solver tolerance, not to round-off.
+  Simulation<2> whole(testing::case_from_yaml(column(0.25, dir + "/whole", f.steps)), PETSC_COMM_WORLD);
+  const RunSummary w = whole.run(nullptr);
   Simulation<2> second(testing::case_from_yaml(column(0.25, dir + "/second")), PETSC_COMM_WORLD);
   second.restart(f.last_checkpoint);
   CHECK(second.time() == first.time());
@@ -67,7 +80,7 @@ TEST_CASE("a run restarted from a checkpoint repeats the uninterrupted run", "[c
     const double d = max_relative_difference(testing::gather_by_id(whole.particles(), name, block),
                                              testing::gather_by_id(second.particles(), name, block));
     INFO(name << ": largest difference " << d);
-    CHECK(d <= 1e-12);
+    CHECK(d <= (testing::comm_size(PETSC_COMM_WORLD) == 1 ? 1e-12 : 1e-6));
   }
   // The column has collapsed enough for the comparison to mean something.
   const auto eps_p = testing::gather_by_id(whole.particles(), field::cumulative_plastic_strain, 1);

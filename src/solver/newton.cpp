@@ -242,6 +242,15 @@ void NewtonSolver<dim>::configure(PetscInt unknowns) {
     TALUS_PETSC(KSPSetType(ksp, KSPGMRES));
     TALUS_PETSC(KSPSetPCSide(ksp, PC_RIGHT));
     TALUS_PETSC(KSPSetTolerances(ksp, 1e-8, PETSC_DEFAULT, PETSC_DEFAULT, 50));
+    // Inexact Newton (Eisenstat & Walker 1996, choice 2): the first solve of
+    // a step to 1e-8, so a linear step still takes one Newton iteration;
+    // later ones only as accurately as Newton is contracting,
+    //   eta_k = (||F_k|| / ||F_k-1||)^((1 + sqrt 5)/2),  at most 1e-2,
+    // so a line search that shortens the step to 10-50 % (large steps,
+    // docs/solver.md#large-steps) does not pay for a direction to 1e-8.
+    TALUS_PETSC(SNESKSPSetUseEW(snes_, PETSC_TRUE));
+    TALUS_PETSC(SNESKSPSetParametersEW(snes_, 2, 1e-8, 1e-2, PETSC_DEFAULT, PETSC_DEFAULT, PETSC_DEFAULT,
+                                       PETSC_DEFAULT));
   } else {
     TALUS_PETSC(KSPSetType(ksp, KSPGMRES));
     TALUS_PETSC(KSPSetPCSide(ksp, PC_RIGHT));

@@ -104,10 +104,9 @@ class NewtonSolver {
   // docs/solver.md#stagnation).
   static constexpr PetscInt default_stagnation_iterations = 6;
   long factorizations() const { return factorization_.factorizations; }  // since construction
-  // The next step factors its first Jacobian, as a run restarted there would
-  // (called after every checkpoint).
-  void refactor_next_step() { factorization_.refactor = true; }
-  // The grid was re-partitioned: the next step builds its structure anew.
+  // The next step builds its structure anew (and factors its first
+  // Jacobian): the grid was re-partitioned, or a checkpoint was written, from
+  // which a restarted run starts with a new solver.
   void rebuild_next_step() { stale_structure_ = true; }
 
   // What the SNES callbacks see.
