@@ -317,6 +317,10 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
   for (std::size_t p = 0; p < stencils_.size(); ++p) {
     const Stencil<dim>& st = stencils_[p];
     const StressTangent& A = tangent_[p];
+    // A particle returned to the apex (also while it closes its voids) has
+    // no stiffness, A = 0 exactly: nothing to add. In a spreading deposit
+    // that is up to half of the particles.
+    if (A.isZero(0.0)) continue;
     for (int b = 0; b < st.count; ++b) {
       if (active_.compact_index(st.local[b]) < 0) continue;
       // G(ij, k) = V_p h theta^2 sum_l A(ij, kl) dN_b/dx_l
