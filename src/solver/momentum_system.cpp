@@ -211,7 +211,7 @@ void MomentumSystem<dim>::contact_rows(Vec v, Vec F) {
 }
 
 template <int dim>
-void MomentumSystem<dim>::contact_jacobian(Vec v, Mat J) {
+std::vector<double> MomentumSystem<dim>::contact_row_factors(Vec v) {
   PetscBool same = PETSC_FALSE;
   if (contact_at_) TALUS_PETSC(VecEqual(v, contact_at_, &same));
   if (!same) {
@@ -221,69 +221,55 @@ void MomentumSystem<dim>::contact_jacobian(Vec v, Mat J) {
     TALUS_PETSC(VecDestroy(&F));
   }
   const auto t0 = std::chrono::steady_clock::now();
-  PetscInt first;
-  TALUS_PETSC(VecGetOwnershipRange(v, &first, nullptr));
-  // Row block i of the assembled momentum Jacobian is dR_i/dv; the natural
-  // map's rows are (I - D) dR_i/dv, plus rho D du_hat/du on the diagonal block.
-  // MatGetRow works on owned rows only, which the contact points are.
-  std::vector<std::vector<PetscInt>> columns(contacts_.size());
-  std::vector<std::vector<double>> values(contacts_.size());
+  // The natural map's row block of contact point i is linear in the point's
+  // momentum row block dR_i/dv (the assembled row, mass included):
+  //   dPhi_i/dv = P_i dR_i/dv + Q_i E_i,   E_i: the columns of v_i,
+  //   P_i = I - D_i (= dPhi/dr),  Q_i = rho_i D_i du_hat/du (= dPhi/du),
+  // where a component held by a slip face keeps its own row (r_a = v_a = 0
+  // are constants: column a of P and Q drops out, row a of P is e_a, of Q 0).
+  // Linear in the row, so every rank can apply P_i to its own particles'
+  // share of the row before the shares are summed: the contact rows are
+  // written in the same assembly pass as the momentum rows (no MatGetRow,
+  // no second assembly). Ranks that hold point i as a ghost need P_i from its
+  // owner: one scatter per column of P. Q_i goes with the mass, on the owner.
+  contact_left_.assign(contacts_.size(), Matrix<dim>::Identity());
+  contact_right_.assign(contacts_.size(), Matrix<dim>::Zero());
   for (std::size_t c = 0; c < contacts_.size(); ++c) {
-    const PetscInt r0 = first + contacts_[c].row;
-    // Union of the columns of the block's rows (the block pattern is shared).
-    std::vector<PetscInt>& cols = columns[c];
-    std::vector<std::vector<std::pair<PetscInt, double>>> rows(dim);
-    for (int a = 0; a < dim; ++a) {
-      PetscInt ncols;
-      const PetscInt* cj;
-      const PetscScalar* vj;
-      TALUS_PETSC(MatGetRow(J, r0 + a, &ncols, &cj, &vj));
-      for (PetscInt k = 0; k < ncols; ++k) {
-        rows[a].emplace_back(cj[k], vj[k]);
-        cols.push_back(cj[k]);
-      }
-      TALUS_PETSC(MatRestoreRow(J, r0 + a, &ncols, &cj, &vj));
-    }
-    for (int a = 0; a < dim; ++a) cols.push_back(r0 + a);
-    std::sort(cols.begin(), cols.end());
-    cols.erase(std::unique(cols.begin(), cols.end()), cols.end());
-    const std::size_t nc = cols.size();
-    Eigen::MatrixXd block = Eigen::MatrixXd::Zero(dim, static_cast<Eigen::Index>(nc));
+    Matrix<dim>& P = contact_left_[c];
+    Matrix<dim>& Q = contact_right_[c];
+    P = contact_map_[c].d_impulse;
+    Q = contact_map_[c].d_velocity;
     for (int a = 0; a < dim; ++a)
-      for (const auto& [col, value] : rows[a]) {
-        const auto at = std::lower_bound(cols.begin(), cols.end(), col) - cols.begin();
-        block(a, at) += value;
-      }
-    // Constrained components: r_a = 0 and v_a = 0 are constants, so their
-    // columns of dPhi/dr and dPhi/du drop out, and their rows stay m v_a = 0.
-    Matrix<dim> d_impulse = contact_map_[c].d_impulse, d_velocity = contact_map_[c].d_velocity;
+      if (!contacts_[c].free[a]) P.col(a).setZero(), Q.col(a).setZero();
     for (int a = 0; a < dim; ++a)
-      if (!contacts_[c].free[a]) d_impulse.col(a).setZero(), d_velocity.col(a).setZero();
-    Eigen::MatrixXd result = d_impulse * block;
-    for (int b = 0; b < dim; ++b) {
-      const auto at = std::lower_bound(cols.begin(), cols.end(), r0 + b) - cols.begin();
-      result.col(at) += d_velocity.col(b);
-    }
-    for (int a = 0; a < dim; ++a)
-      if (!contacts_[c].free[a]) result.row(a) = block.row(a);
-    // Row-major for MatSetValues.
-    values[c].resize(dim * nc);
-    for (int a = 0; a < dim; ++a)
-      for (std::size_t k = 0; k < nc; ++k) values[c][a * nc + k] = result(a, static_cast<Eigen::Index>(k));
+      if (!contacts_[c].free[a]) P.row(a) = Matrix<dim>::Identity().row(a), Q.row(a).setZero();
   }
-  for (std::size_t c = 0; c < contacts_.size(); ++c) {
-    PetscInt rows[3];
-    for (int a = 0; a < dim; ++a) rows[a] = first + contacts_[c].row + a;
-    TALUS_PETSC(MatSetValues(J, dim, rows, static_cast<PetscInt>(columns[c].size()), columns[c].data(),
-                             values[c].data(), INSERT_VALUES));
+  const int n = grid_.ghosted_count();
+  std::vector<double> left(static_cast<std::size_t>(n) * dim * dim, 0.0), column;
+  Vec compact = active_.create_vector();
+  for (int j = 0; j < dim; ++j) {
+    PetscScalar* x;
+    TALUS_PETSC(VecGetArray(compact, &x));
+    const PetscInt owned = active_.owned_count();
+    for (PetscInt k = 0; k < owned; ++k)
+      for (int a = 0; a < dim; ++a) x[dim * k + a] = a == j ? 1.0 : 0.0;
+    for (std::size_t c = 0; c < contacts_.size(); ++c)
+      for (int a = 0; a < dim; ++a) x[contacts_[c].row + a] = contact_left_[c](a, j);
+    TALUS_PETSC(VecRestoreArray(compact, &x));
+    active_.to_grid(compact, column);
+    for (int i = 0; i < n; ++i)
+      for (int a = 0; a < dim; ++a) left[(static_cast<std::size_t>(i) * dim + a) * dim + j] = column[dim * i + a];
   }
-  TALUS_PETSC(MatAssemblyBegin(J, MAT_FINAL_ASSEMBLY));
-  TALUS_PETSC(MatAssemblyEnd(J, MAT_FINAL_ASSEMBLY));
+  TALUS_PETSC(VecDestroy(&compact));
   contact_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return left;
 }
 
 template <int dim>
 void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
+  // The contact rows' left factors P_i (row-major dim x dim per ghosted
+  // point), or none without contact.
+  const std::vector<double> left = any_contacts_ ? contact_row_factors(v) : std::vector<double>();
   if (!evaluated_at(v)) evaluate_particles(v);
   TALUS_PETSC(MatZeroEntries(J));
   // Particle contributions are first summed per (point, neighbour) block on
@@ -366,20 +352,40 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
           if (active_.constrained(point, i) || (neighbour >= 0 && active_.constrained(neighbour, k)))
             row[i * row_length + n * dim + k] = 0.0;
     }
+    if (!left.empty()) {
+      // A contact point's share of its natural-map row: P_i times the share
+      // of its momentum row (contact_row_factors).
+      const Eigen::Map<const Eigen::Matrix<double, dim, dim, Eigen::RowMajor>> P(left.data() +
+                                                                                 static_cast<std::size_t>(point) * dim * dim);
+      if (!P.isIdentity(0.0))
+        for (int n = 0; n < neighbours; ++n) {
+          Eigen::Map<Eigen::Matrix<double, dim, dim, Eigen::RowMajor>, 0, Eigen::OuterStride<>> block(
+              row + n * dim, Eigen::OuterStride<>(row_length));
+          block = (P * block).eval();
+        }
+    }
     const PetscInt r = active_.compact_index(point);
     TALUS_PETSC(MatSetValuesBlocked(J, 1, &r, neighbours, cols.data(), row, ADD_VALUES));
   }
+  // The mass on the diagonal blocks, by their owners: m_i I, or on a contact
+  // point m_i P_i + Q_i.
   PetscInt first;
   TALUS_PETSC(VecGetOwnershipRange(v, &first, nullptr));
+  first /= dim;
   const auto& owned = active_.owned_points();
-  for (std::size_t k = 0; k < owned.size(); ++k)
-    for (int c = 0; c < dim; ++c) {
-      const PetscInt r = first + static_cast<PetscInt>(dim * k + c);
-      TALUS_PETSC(MatSetValue(J, r, r, fields_.mass[owned[k]], ADD_VALUES));
-    }
+  std::vector<Matrix<dim>> diagonal(owned.size());
+  for (std::size_t k = 0; k < owned.size(); ++k) diagonal[k] = fields_.mass[owned[k]] * Matrix<dim>::Identity();
+  for (std::size_t c = 0; c < contact_left_.size() && !left.empty(); ++c) {
+    const std::size_t k = static_cast<std::size_t>(contacts_[c].row / dim);
+    diagonal[k] = fields_.mass[owned[k]] * contact_left_[c] + contact_right_[c];
+  }
+  for (std::size_t k = 0; k < owned.size(); ++k) {
+    const PetscInt r = first + static_cast<PetscInt>(k);
+    const Eigen::Matrix<double, dim, dim, Eigen::RowMajor> block = diagonal[k];
+    TALUS_PETSC(MatSetValuesBlocked(J, 1, &r, 1, &r, block.data(), ADD_VALUES));
+  }
   TALUS_PETSC(MatAssemblyBegin(J, MAT_FINAL_ASSEMBLY));
   TALUS_PETSC(MatAssemblyEnd(J, MAT_FINAL_ASSEMBLY));
-  if (any_contacts_) contact_jacobian(v, J);
 }
 
 template <int dim>

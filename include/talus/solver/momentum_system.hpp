@@ -76,7 +76,10 @@ class MomentumSystem {
   void evaluate_particles(Vec v);
   bool evaluated_at(Vec v) const;
   void contact_rows(Vec v, Vec F);      // replaces the contact candidates' rows of F by the natural map
-  void contact_jacobian(Vec v, Mat J);  // the same on the assembled Jacobian
+  // The left factors P_i of the contact rows' Jacobian (dPhi_i/dv =
+  // P_i dR_i/dv + Q_i on v_i) at v, row-major dim x dim per ghosted point
+  // (identity off contact points); keeps P_i, Q_i of the owned contacts.
+  std::vector<double> contact_row_factors(Vec v);
 
   const Grid<dim>& grid_;
   const std::vector<Stencil<dim>>& stencils_;
@@ -103,6 +106,7 @@ class MomentumSystem {
   std::vector<ContactPoint<dim>> contacts_;
   std::vector<Vector<dim>> contact_impulse_;
   std::vector<NaturalMap<dim>> contact_map_;
+  std::vector<Matrix<dim>> contact_left_, contact_right_;  // P_i, Q_i (contact_row_factors)
   Vec contact_at_ = nullptr;  // the v of the last contact evaluation
   double contact_seconds_ = 0.0;
   int any_contacts_ = 0;  // on any rank
