@@ -109,10 +109,12 @@ TEST_CASE("the matrix and preconditioner are built once while the active set hol
   // same matrices (reused factors are tested below).
   const auto run = [&](bool reuse) {
     TALUS_PETSC(PetscOptionsSetValue(nullptr, "-talus_ksp_type", "preonly"));
+    TALUS_PETSC(PetscOptionsSetValue(nullptr, "-talus_pc_type", "lu"));
     Simulation<2> sim(testing::case_from_yaml(yaml), PETSC_COMM_WORLD);
     sim.newton().set_structure_reuse(reuse);
     for (int n = 0; n < 6; ++n) REQUIRE(sim.advance(0.005).converged);
     clear("-talus_ksp_type");
+    clear("-talus_pc_type");
     return std::pair{testing::gather_by_id(sim.particles(), field::stress, 6), sim.newton().structure_builds()};
   };
   const auto [kept, kept_builds] = run(true);
@@ -194,17 +196,24 @@ ColumnRun run_column(const std::string& yaml, double h, int steps,
 
 }  // namespace
 
-// The default below the direct limit is GMRES preconditioned by the LU
-// factors of an earlier Newton iterate, factored again only when a solve
-// needs more than -talus_refactor_iterations Krylov iterations. The
-// reference is Newton with a fresh LU solve at every iterate (preonly).
-TEST_CASE("LU factors are kept across steps while the Jacobian holds", "[solver][reuse][mpi]") {
-  {
+// The default below the direct limit is GMRES preconditioned by the factors
+// (incomplete LU on one rank, LU on several) of an earlier Newton iterate,
+// factored again only when a solve needs more than
+// -talus_refactor_iterations Krylov iterations. The reference is Newton with
+// a fresh LU solve at every iterate (preonly).
+const std::vector<std::pair<std::string, std::string>> fresh_lu{{"-talus_ksp_type", "preonly"},
+                                                                {"-talus_pc_type", "lu"}};
+
+TEST_CASE("Factors are kept across steps while the Jacobian holds", "[solver][reuse][mpi]") {
+  for (const char* pc : {"", "lu"}) {
     // Elastic, at rest: every Jacobian equals the first, so its factors
-    // solve every later system in one Krylov iteration.
+    // serve every later system (in one Krylov iteration for LU).
+    INFO("-talus_pc_type " << (*pc ? pc : "(default)"));
     const std::string yaml = column_case(1.0, 0.1, 0.005, "");
-    const ColumnRun reused = run_column(yaml, 0.005, 6, {}, PETSC_COMM_WORLD);
-    const ColumnRun fresh = run_column(yaml, 0.005, 6, {{"-talus_ksp_type", "preonly"}}, PETSC_COMM_WORLD);
+    std::vector<std::pair<std::string, std::string>> options;
+    if (*pc) options.emplace_back("-talus_pc_type", pc);
+    const ColumnRun reused = run_column(yaml, 0.005, 6, options, PETSC_COMM_WORLD);
+    const ColumnRun fresh = run_column(yaml, 0.005, 6, fresh_lu, PETSC_COMM_WORLD);
     CHECK(reused.factorizations == 1);
     CHECK(fresh.factorizations == 0);  // preonly: no reuse, nothing counted
     // Both Newton runs stop at U <= 1e-8 on a linear problem: one Newton
@@ -213,14 +222,18 @@ TEST_CASE("LU factors are kept across steps while the Jacobian holds", "[solver]
   }
 }
 
-TEST_CASE("LU factors are refreshed when they no longer precondition well", "[solver][reuse]") {
-  SECTION("a collapsing plastic column") {
+TEST_CASE("Factors are refreshed when they no longer precondition well", "[solver][reuse]") {
+  SECTION("a collapsing plastic column, LU and the default incomplete LU") {
     // 16 steps of 2e-3 s (10 explicit steps): branches of the return map
     // change between iterates, the stale factors precondition less well and
     // are refreshed when a solve needs more than 30 Krylov iterations.
+    for (const char* pc : {"lu", ""}) {
+    INFO("-talus_pc_type " << (*pc ? pc : "(default)"));
     const std::string yaml = collapsing_column(2e-3);
-    const ColumnRun reused = run_column(yaml, 2e-3, 16, {}, PETSC_COMM_SELF);
-    const ColumnRun fresh = run_column(yaml, 2e-3, 16, {{"-talus_ksp_type", "preonly"}}, PETSC_COMM_SELF);
+    std::vector<std::pair<std::string, std::string>> options;
+    if (*pc) options.emplace_back("-talus_pc_type", pc);
+    const ColumnRun reused = run_column(yaml, 2e-3, 16, options, PETSC_COMM_SELF);
+    const ColumnRun fresh = run_column(yaml, 2e-3, 16, fresh_lu, PETSC_COMM_SELF);
     std::printf("collapsing column, 16 steps: reused factors: %ld Newton iterations, %ld factorizations; "
                 "fresh LU: %ld Newton iterations\n",
                 reused.newton, reused.factorizations, fresh.newton);
@@ -231,6 +244,8 @@ TEST_CASE("LU factors are refreshed when they no longer precondition well", "[so
     // stresses agree to the solver tolerance times the stiffness ratio
     // (c_p h / dx)^2 ~ 10 (measured: 7e-13).
     CHECK(max_relative_difference(reused.stress, fresh.stress) < 1e-6);
+    CHECK(reused.fallbacks == 0);
+    }
   }
   SECTION("a stale solve that does not converge is solved again on fresh factors") {
     // One GMRES iteration allowed: every solve on stale factors stops
@@ -243,9 +258,10 @@ TEST_CASE("LU factors are refreshed when they no longer precondition well", "[so
     // Inexact Newton off: with its looser tolerances (up to 1e-2) one
     // iteration on stale factors can converge, and this section is about
     // the solves that do not.
-    const ColumnRun capped = run_column(yaml, 2e-3, 8, {{"-talus_ksp_max_it", "1"}, {"-talus_snes_ksp_ew", "false"}},
-                                        PETSC_COMM_SELF);
-    const ColumnRun fresh = run_column(yaml, 2e-3, 8, {{"-talus_ksp_type", "preonly"}}, PETSC_COMM_SELF);
+    const ColumnRun capped = run_column(
+        yaml, 2e-3, 8, {{"-talus_pc_type", "lu"}, {"-talus_ksp_max_it", "1"}, {"-talus_snes_ksp_ew", "false"}},
+        PETSC_COMM_SELF);
+    const ColumnRun fresh = run_column(yaml, 2e-3, 8, fresh_lu, PETSC_COMM_SELF);
     CHECK(capped.resolves >= 1);
     CHECK(capped.linear_failures == 0);
     CHECK(capped.fallbacks == 0);

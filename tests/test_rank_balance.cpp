@@ -69,6 +69,7 @@ TEST_CASE("a body in one corner of a large box: every rank gets its share of par
 }
 
 TEST_CASE("re-partitioning during the run follows the body and leaves the result unchanged", "[balance][mpi]") {
+  const auto lu = testing::lu_on_every_rank();
   const int ranks = testing::comm_size(PETSC_COMM_WORLD);
   CaseConfig config = testing::case_from_yaml(corner_block_2d + "parallel: {imbalance_limit: 1.1}\n");
   Simulation<2> parallel(config, PETSC_COMM_WORLD);
@@ -105,6 +106,7 @@ TEST_CASE("re-partitioning during the run follows the body and leaves the result
 }
 
 TEST_CASE("3D: a block in one corner, balanced, equals the serial run", "[balance][mpi]") {
+  const auto lu = testing::lu_on_every_rank();
   const std::string yaml =
       "grid: {lower: [0, 0, 0], upper: [1.0, 0.5, 0.5], cell_size: 0.05}\n"
       "time: {end: 0.05, step: 0.01}\noutput: {enabled: false}\ncheckpoint: {enabled: false}\n"
@@ -134,6 +136,7 @@ TEST_CASE("3D: a block in one corner, balanced, equals the serial run", "[balanc
 }
 
 TEST_CASE("a collapsing column split across its height by the balancing runs like the serial one", "[balance][mpi]") {
+  const auto lu = testing::lu_on_every_rank();
   // inputs/column_collapse_psi0.yaml for 0.1 s: the balancing cuts the
   // 0.5 x 1.0 m column across its height (1 x 2 process grid). Grid rows
   // next to the cut are first touched only by the lower rank's particles and,

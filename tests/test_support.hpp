@@ -7,6 +7,7 @@
 #include <cmath>
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "talus/io/config.hpp"
@@ -18,6 +19,26 @@
 namespace talus::testing {
 
 inline CaseConfig case_from_yaml(const std::string& yaml) { return parse_case(yaml, "<test case>"); }
+
+// A PETSc option set for the lifetime of this object, then removed.
+class ScopedOption {
+ public:
+  ScopedOption(std::string name, const char* value) : name_(std::move(name)) {
+    TALUS_PETSC(PetscOptionsSetValue(nullptr, name_.c_str(), value));
+  }
+  ~ScopedOption() { PetscOptionsClearValue(nullptr, name_.c_str()); }
+  ScopedOption(const ScopedOption&) = delete;
+  ScopedOption& operator=(const ScopedOption&) = delete;
+
+ private:
+  std::string name_;
+};
+
+// Serial and parallel runs both on LU factors, so that they differ by
+// round-off only: the serial default, GMRES on an incomplete LU, stops at the
+// balance tolerance, so its answer differs from the parallel one (MUMPS's
+// LU) by up to that tolerance times the conditioning (docs/solver.md).
+inline ScopedOption lu_on_every_rank() { return ScopedOption("-talus_pc_type", "lu"); }
 
 // All particles' values of a real field, ordered by particle id, on every rank.
 template <int dim>

@@ -124,6 +124,7 @@ class NewtonSolver {
   SNES solving_snes() const;       // the SNES whose KSP solves the linear systems (inner Newton, if any)
   PC solving_pc() const;           // its preconditioner
   bool solves_by_lu() const;
+  bool solves_by_factors() const;  // LU or incomplete LU: factors that can be kept (reused mode)
   void build(MomentumSystem<dim>& system, PetscInt unknowns, bool direct);
   void destroy();
   bool same_unknowns(const MomentumSystem<dim>& system) const;
