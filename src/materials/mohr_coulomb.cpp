@@ -1,11 +1,46 @@
 #include "talus/materials/mohr_coulomb.hpp"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
+#include <utility>
 
 #include "talus/io/yaml_section.hpp"
 #include "talus/materials/parameters.hpp"
 
 namespace talus {
+
+namespace {
+
+// Eigenvalues (ascending) and unit eigenvectors (columns) of a symmetric
+// 3 x 3 stress. In plane strain (sigma_xz = sigma_yz = 0, every 2D particle)
+// z is a principal direction and the x-y block is solved in closed form,
+//   lambda = m +- hypot((a - d)/2, b),  theta = atan2(2 b, a - d) / 2,
+// exact to round-off and several times cheaper than Eigen's iterative
+// solver, which remains for general 3D states.
+void principal_stresses(const Eigen::Matrix3d& A, Eigen::Vector3d& values, Eigen::Matrix3d& vectors) {
+  if (A(0, 2) != 0.0 || A(1, 2) != 0.0) {
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(A);
+    values = eigen.eigenvalues();
+    vectors = eigen.eigenvectors();
+    return;
+  }
+  const double a = A(0, 0), b = A(0, 1), d = A(1, 1);
+  const double m = 0.5 * (a + d), r = std::hypot(0.5 * (a - d), b);
+  const double theta = 0.5 * std::atan2(2.0 * b, a - d);
+  const double c = std::cos(theta), s = std::sin(theta);
+  // (value, eigenvector) of the three directions, then sorted ascending.
+  std::array<std::pair<double, Eigen::Vector3d>, 3> pairs{{{m + r, Eigen::Vector3d(c, s, 0.0)},
+                                                    {m - r, Eigen::Vector3d(-s, c, 0.0)},
+                                                    {A(2, 2), Eigen::Vector3d(0.0, 0.0, 1.0)}}};
+  std::sort(pairs.begin(), pairs.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
+  for (int i = 0; i < 3; ++i) {
+    values[i] = pairs[i].first;
+    vectors.col(i) = pairs[i].second;
+  }
+}
+
+}  // namespace
 
 namespace {
 
@@ -66,8 +101,9 @@ std::unique_ptr<Material> MohrCoulomb::from_yaml(YamlSection& y) {
 }
 
 double MohrCoulomb::yield_function(const Voigt& stress) const {
-  const Vector3 s = Eigen::SelfAdjointEigenSolver<Matrix3>(voigt_to_tensor(stress), Eigen::EigenvaluesOnly)
-                        .eigenvalues();  // ascending
+  Vector3 s;  // ascending
+  Matrix3 vectors;
+  principal_stresses(voigt_to_tensor(stress), s, vectors);
   return (s[2] - s[0]) + (s[2] + s[0]) * sin_phi_ - 2.0 * par_.cohesion * cos_phi_;
 }
 
@@ -167,10 +203,12 @@ void MohrCoulomb::update(const Voigt& rotated_stress, const Voigt& strain_increm
                          MaterialPointUpdate& out) const {
   const Voigt trial = rotated_stress + stiffness_ * strain_increment;
   out.separation_strain_increment = 0.0;
-  const Eigen::SelfAdjointEigenSolver<Matrix3> eigen(voigt_to_tensor(trial));
-  // Sorted descending: sigma1 >= sigma2 >= sigma3 (Eigen sorts ascending).
-  const Vector3 lambda = eigen.eigenvalues().reverse();
-  const Matrix3 V = eigen.eigenvectors().rowwise().reverse();
+  Vector3 ascending;
+  Matrix3 vectors;
+  principal_stresses(voigt_to_tensor(trial), ascending, vectors);
+  // Sorted descending: sigma1 >= sigma2 >= sigma3.
+  const Vector3 lambda = ascending.reverse();
+  const Matrix3 V = vectors.rowwise().reverse();
   const MohrCoulombPrincipalReturn ret = principal_return(lambda);
 
   if (ret.branch == MohrCoulombBranch::elastic) {
