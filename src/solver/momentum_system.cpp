@@ -1,6 +1,7 @@
 #include "talus/solver/momentum_system.hpp"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 
@@ -279,8 +280,12 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
   int neighbours = 1;
   for (int a = 0; a < dim; ++a) neighbours *= width;
   const int row_length = neighbours * dim;  // values in one scalar row of a block row
-  std::vector<int> slot(grid_.ghosted_count(), -1);
-  std::vector<int> slot_point;
+  // The slots and the block rows are kept from one Jacobian to the next
+  // (members), so only their values are reset, not their memory.
+  std::vector<int>& slot = jacobian_slot_;
+  std::vector<int>& slot_point = jacobian_slot_point_;
+  slot.assign(grid_.ghosted_count(), -1);
+  slot_point.clear();
   for (const Stencil<dim>& st : stencils_)
     for (int k = 0; k < st.count; ++k)
       if (slot[st.local[k]] < 0 && active_.compact_index(st.local[k]) >= 0) {
@@ -297,8 +302,15 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
       slot[point] = static_cast<int>(slot_point.size());
       slot_point.push_back(point);
     }
-  std::vector<double> rows(slot_point.size() * dim * row_length, 0.0);
+  std::vector<double>& rows = jacobian_rows_;
+  rows.assign(slot_point.size() * dim * row_length, 0.0);
 
+  // Position of neighbour b in point a's block row: lin(b) - lin(a) + centre,
+  // lin(x) = sum_ax node_x[ax] width^ax.
+  std::array<int, dim> stride;
+  int centre = 0;
+  for (int ax = 0, w = 1; ax < dim; ++ax, w *= width) stride[ax] = w, centre += reach * w;
+  constexpr int max_nodes = Stencil<dim>::max_nodes;
   const double scale = h_ * theta_ * theta_;
   for (std::size_t p = 0; p < stencils_.size(); ++p) {
     const Stencil<dim>& st = stencils_[p];
@@ -307,9 +319,21 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
     // no stiffness, A = 0 exactly: nothing to add. In a spreading deposit
     // that is up to half of the particles.
     if (A.isZero(0.0)) continue;
+    // The particle's gradients as rows, its nodes' block rows and positions.
+    Eigen::Matrix<double, max_nodes, dim> gradient = Eigen::Matrix<double, max_nodes, dim>::Zero();
+    std::array<double*, max_nodes> block_row;
+    std::array<int, max_nodes> lin;
+    for (int a = 0; a < st.count; ++a) {
+      gradient.row(a) = st.gradient[a].transpose();
+      const int sa = slot[st.local[a]];
+      block_row[a] = sa < 0 ? nullptr : rows.data() + static_cast<std::size_t>(sa) * dim * row_length;
+      lin[a] = 0;
+      for (int ax = 0; ax < dim; ++ax) lin[a] += st.node[a][ax] * stride[ax];
+    }
     for (int b = 0; b < st.count; ++b) {
       if (active_.compact_index(st.local[b]) < 0) continue;
-      // G(ij, k) = V_p h theta^2 sum_l A(ij, kl) dN_b/dx_l
+      // G(ij, k) = V_p h theta^2 sum_l A(ij, kl) dN_b/dx_l, then the block
+      // of every node a: K_ab(i, k) = sum_j dN_a/dx_j G(ij, k).
       Eigen::Matrix<double, nL, dim> G;
       for (int k = 0; k < dim; ++k) {
         G.col(k).setZero();
@@ -317,15 +341,12 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
       }
       G *= scale * reference_volume_[p];
       for (int a = 0; a < st.count; ++a) {
-        const int sa = slot[st.local[a]];
-        if (sa < 0) continue;
-        int offset = 0;
-        for (int ax = dim - 1; ax >= 0; --ax) offset = offset * width + (st.node[b][ax] - st.node[a][ax] + reach);
-        double* row = rows.data() + static_cast<std::size_t>(sa) * dim * row_length + offset * dim;
+        if (!block_row[a]) continue;
+        double* row = block_row[a] + (lin[b] - lin[a] + centre) * dim;
         for (int i = 0; i < dim; ++i)
           for (int k = 0; k < dim; ++k) {
             double value = 0.0;
-            for (int j = 0; j < dim; ++j) value += st.gradient[a][j] * G(i * dim + j, k);
+            for (int j = 0; j < dim; ++j) value += gradient(a, j) * G(i * dim + j, k);
             row[i * row_length + k] += value;
           }
       }

@@ -101,6 +101,10 @@ class MomentumSystem {
   std::vector<Voigt> stress_end_, plastic_increment_;
   std::vector<double> state_end_, separation_end_;
   std::vector<StressTangent> tangent_;
+  // Jacobian assembly buffers (kept between Jacobians): the slot of each
+  // ghosted point, the points of the slots, their block rows.
+  std::vector<int> jacobian_slot_, jacobian_slot_point_;
+  std::vector<double> jacobian_rows_;
   Vec evaluated_at_ = nullptr;  // the v of the last evaluation
 
   std::vector<ContactPoint<dim>> contacts_;
