@@ -243,13 +243,22 @@ void NewtonSolver<dim>::configure(PetscInt unknowns) {
     // measured on plastic and contact cases, 1.5-1.8x less CPU than kept LU
     // factors (docs/solver.md#defaults). A fresh ILU that cannot solve a
     // Newton system sends the step to the LU fallback. On several ranks:
-    // MUMPS's LU (PETSc's ILU is serial).
+    // block Jacobi with the same incomplete LU on each rank's block (PETSc's
+    // ILU is serial), kept in the same way.
     configure_direct(ksp);
     int size = 1;
     MPI_Comm_size(comm_, &size);
+    const char* levels = dim == 2 ? "1" : "0";
     if (size == 1) {
       TALUS_PETSC(PCSetType(pc, PCILU));
       TALUS_PETSC(PCFactorSetLevels(pc, dim == 2 ? 1 : 0));
+    } else {
+      TALUS_PETSC(PCSetType(pc, PCBJACOBI));
+      // The blocks' own PCs exist only after set-up: their defaults go in
+      // the options database, unless given there already.
+      PetscBool given = PETSC_FALSE;
+      TALUS_PETSC(PetscOptionsHasName(nullptr, "talus_", "-sub_pc_factor_levels", &given));
+      if (!given) TALUS_PETSC(PetscOptionsSetValue(nullptr, "-talus_sub_pc_factor_levels", levels));
     }
     TALUS_PETSC(KSPSetType(ksp, KSPGMRES));
     TALUS_PETSC(KSPSetPCSide(ksp, PC_RIGHT));
@@ -319,7 +328,8 @@ template <int dim>
 MatType NewtonSolver<dim>::matrix_type() const {
   PC pc = solving_pc();
   if (!solves_by_factors()) return MATAIJ;
-  // Incomplete LU is PETSc's own, with block kernels on BAIJ.
+  // Incomplete LU (also in block Jacobi's blocks) is PETSc's own, with block
+  // kernels on BAIJ.
   if (!solves_by_lu()) return MATBAIJ;
   MatSolverType package = nullptr;
   TALUS_PETSC(PCFactorGetMatSolverType(pc, &package));
@@ -352,8 +362,10 @@ PC NewtonSolver<dim>::solving_pc() const {
 
 template <int dim>
 bool NewtonSolver<dim>::solves_by_factors() const {
+  // Block Jacobi factors its blocks (ILU by default): kept in the same way.
   PetscBool factors = PETSC_FALSE;
-  TALUS_PETSC(PetscObjectTypeCompareAny(reinterpret_cast<PetscObject>(solving_pc()), &factors, PCLU, PCILU, ""));
+  TALUS_PETSC(
+      PetscObjectTypeCompareAny(reinterpret_cast<PetscObject>(solving_pc()), &factors, PCLU, PCILU, PCBJACOBI, ""));
   return factors;
 }
 
