@@ -85,7 +85,7 @@ grep -q "bad.yaml:[0-9]*: materials\[0\].poisson_ratio = 0.7" bad.log || { echo 
 
 # A bad value of talus's own PETSc option: exit 2, named, no output.
 sed -e "s#directory: .*#directory: $work/bad_option_out#" "$repo/inputs/elastic_column.yaml" > bad_option.yaml
-for bad in "refactor_iterations 3x" "stagnation_iterations -1"; do
+for bad in "refactor_iterations 3x" "stagnation_iterations -1" "direct_fallback_limit 1e9"; do
   set -- $bad
   set +e
   "$talus" run bad_option.yaml -talus_$1 "$2" > bad_option.log 2>&1

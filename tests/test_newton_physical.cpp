@@ -108,6 +108,22 @@ TEST_CASE("a Newton system the linear solver did not solve is never accepted", "
     // Both end on an LU Newton iteration from the same guess: equal to round-off.
     CHECK(max_relative_difference(x, x_lu) < 1e-10);
   }
+  SECTION("above -talus_direct_fallback_limit the step is cut back instead") {
+    // The same failing solves with the fallback limited to 10 unknowns (the
+    // column has ~200): the step is rejected, not re-solved by LU, and the
+    // particles are left as they were.
+    const testing::ScopedOption limit("-talus_direct_fallback_limit", "10");
+    const testing::ScopedOption ksp("-talus_ksp_type", "gmres");
+    const testing::ScopedOption pc("-talus_pc_type", "none");
+    const testing::ScopedOption max_it("-talus_ksp_max_it", "2");
+    Simulation<2> sim(testing::case_from_yaml(yaml), PETSC_COMM_SELF);
+    const auto before = testing::gather_by_id(sim.particles(), field::position, 2);
+    const StepReport r = sim.advance(0.01);
+    CHECK_FALSE(r.converged);
+    CHECK_FALSE(r.newton.direct_fallback);
+    CHECK(r.newton.linear_failures > 0);
+    CHECK(testing::gather_by_id(sim.particles(), field::position, 2) == before);
+  }
 }
 
 TEST_CASE("the matrix and preconditioner are built once while the active set holds", "[solver][reuse][mpi]") {

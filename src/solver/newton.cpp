@@ -183,6 +183,7 @@ NewtonSolver<dim>::NewtonSolver(MPI_Comm comm, PetscInt direct_limit, double bal
   // Read once, before the run writes anything.
   factorization_.stale_limit = count_option("refactor_iterations", default_refactor_iterations);
   scale_.stagnation_window = count_option("stagnation_iterations", default_stagnation_iterations);
+  fallback_limit_ = count_option("direct_fallback_limit", default_direct_fallback_limit);
 }
 
 template <int dim>
@@ -491,9 +492,11 @@ NewtonReport NewtonSolver<dim>::solve(MomentumSystem<dim>& system) {
   if (built) build(system, unknowns, false);
   NewtonReport report = run_snes(system);
   report.structure_built = built;
-  if (!report.converged && report.linear_failures > 0 && !solves_by_lu()) {
+  if (!report.converged && report.linear_failures > 0 && !solves_by_lu() && unknowns <= fallback_limit_) {
     // The preconditioner could not solve a Newton system: solve the step
-    // again with a direct factorization before giving up on this h.
+    // again with a direct factorization before giving up on this h. Not for
+    // a system above -talus_direct_fallback_limit, whose LU costs more than
+    // the cut-back that follows a failed step (docs/solver.md#failed-linear-solves).
     build(system, unknowns, true);
     report = retried(report, run_snes(system));
     report.structure_built = true;

@@ -103,6 +103,12 @@ class NewtonSolver {
   // fails (-talus_stagnation_iterations, 0: only the iteration limit;
   // docs/solver.md#stagnation).
   static constexpr PetscInt default_stagnation_iterations = 6;
+  // Largest system (unknowns) whose step is solved again by LU after a failed
+  // linear solve (-talus_direct_fallback_limit); larger ones are cut back.
+  // In 2D an LU of 20,000 unknowns costs about a second, one of 51,000 (the
+  // 1e5-particle column) several, and a fallback step takes up to 25 of
+  // them; in 3D the fill makes 5,000 the affordable size.
+  static constexpr PetscInt default_direct_fallback_limit = dim == 2 ? 20000 : 5000;
   long factorizations() const { return factorization_.factorizations; }  // since construction
   // The next step builds its structure anew (and factors its first
   // Jacobian): the grid was re-partitioned, or a checkpoint was written, from
@@ -132,6 +138,7 @@ class NewtonSolver {
 
   MPI_Comm comm_;
   PetscInt direct_limit_;
+  PetscInt fallback_limit_ = 0;  // -talus_direct_fallback_limit
   bool reuse_ = true;
   bool stale_structure_ = false;
   long builds_ = 0;
