@@ -257,9 +257,12 @@ void NewtonSolver<dim>::configure(PetscInt unknowns) {
       TALUS_PETSC(PCSetType(pc, PCBJACOBI));
       // The blocks' own PCs exist only after set-up: their defaults go in
       // the options database, unless given there already.
-      PetscBool given = PETSC_FALSE;
+      // Not when another PC is asked for: the option would stay unused
+      // (and -options_left would list it).
+      PetscBool given = PETSC_FALSE, other_pc = PETSC_FALSE;
       TALUS_PETSC(PetscOptionsHasName(nullptr, "talus_", "-sub_pc_factor_levels", &given));
-      if (!given) TALUS_PETSC(PetscOptionsSetValue(nullptr, "-talus_sub_pc_factor_levels", levels));
+      TALUS_PETSC(PetscOptionsHasName(nullptr, "talus_", "-pc_type", &other_pc));
+      if (!given && !other_pc) TALUS_PETSC(PetscOptionsSetValue(nullptr, "-talus_sub_pc_factor_levels", levels));
     }
     TALUS_PETSC(KSPSetType(ksp, KSPGMRES));
     TALUS_PETSC(KSPSetPCSide(ksp, PC_RIGHT));
