@@ -298,13 +298,12 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
     t.finish();
   }
 
-  c.solver.direct_solver_limit = default_direct_solver_limit(c.dim);
   if (root.has("solver")) {
     YamlSection s = root.section("solver");
     c.solver.active_mass_ratio = s.real("active_mass_ratio", 1e-12);
     if (!(c.solver.active_mass_ratio >= 0 && c.solver.active_mass_ratio < 1))
       s.fail_value("active_mass_ratio", "must be in [0, 1)");
-    c.solver.direct_solver_limit = s.integer("direct_solver_limit", c.solver.direct_solver_limit);
+    c.solver.direct_solver_limit = s.integer("direct_solver_limit", SolverConfig::default_direct_solver_limit);
     if (c.solver.direct_solver_limit < 0)
       s.fail_value("direct_solver_limit", "must be >= 0");
     c.solver.balance_tolerance = s.real("balance_tolerance", 1e-8);

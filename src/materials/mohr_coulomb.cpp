@@ -40,10 +40,6 @@ void principal_stresses(const Eigen::Matrix3d& A, Eigen::Vector3d& values, Eigen
   }
 }
 
-}  // namespace
-
-namespace {
-
 using Vector3 = Eigen::Vector3d;
 using Matrix3 = Eigen::Matrix3d;
 

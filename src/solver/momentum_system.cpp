@@ -233,8 +233,8 @@ std::vector<double> MomentumSystem<dim>::contact_row_factors(Vec v) {
   // written in the same assembly pass as the momentum rows (no MatGetRow,
   // no second assembly). Ranks that hold point i as a ghost need P_i from its
   // owner: one scatter per column of P. Q_i goes with the mass, on the owner.
-  contact_left_.assign(contacts_.size(), Matrix<dim>::Identity());
-  contact_right_.assign(contacts_.size(), Matrix<dim>::Zero());
+  contact_left_.resize(contacts_.size());
+  contact_right_.resize(contacts_.size());
   for (std::size_t c = 0; c < contacts_.size(); ++c) {
     Matrix<dim>& P = contact_left_[c];
     Matrix<dim>& Q = contact_right_[c];
@@ -319,12 +319,10 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
     // no stiffness, A = 0 exactly: nothing to add. In a spreading deposit
     // that is up to half of the particles.
     if (A.isZero(0.0)) continue;
-    // The particle's gradients as rows, its nodes' block rows and positions.
-    Eigen::Matrix<double, max_nodes, dim> gradient = Eigen::Matrix<double, max_nodes, dim>::Zero();
+    // The particle's nodes: their block rows and positions.
     std::array<double*, max_nodes> block_row;
     std::array<int, max_nodes> lin;
     for (int a = 0; a < st.count; ++a) {
-      gradient.row(a) = st.gradient[a].transpose();
       const int sa = slot[st.local[a]];
       block_row[a] = sa < 0 ? nullptr : rows.data() + static_cast<std::size_t>(sa) * dim * row_length;
       lin[a] = 0;
@@ -346,7 +344,7 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
         for (int i = 0; i < dim; ++i)
           for (int k = 0; k < dim; ++k) {
             double value = 0.0;
-            for (int j = 0; j < dim; ++j) value += gradient(a, j) * G(i * dim + j, k);
+            for (int j = 0; j < dim; ++j) value += st.gradient[a][j] * G(i * dim + j, k);
             row[i * row_length + k] += value;
           }
       }

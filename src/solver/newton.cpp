@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <string>
 
 namespace talus {
 
@@ -243,26 +244,27 @@ void NewtonSolver<dim>::configure(PetscInt unknowns) {
     // 125 block neighbours per row and the full LU costs 5 times an ILU(0):
     // measured on plastic and contact cases, 1.5-1.8x less CPU than kept LU
     // factors (docs/solver.md#defaults). A fresh ILU that cannot solve a
-    // Newton system sends the step to the LU fallback. On several ranks:
+    // Newton system sends the step to the LU fallback or a cut-back
+    // (NewtonSolver::solve). On several ranks:
     // block Jacobi with the same incomplete LU on each rank's block (PETSc's
     // ILU is serial), kept in the same way.
     configure_direct(ksp);
     int size = 1;
     MPI_Comm_size(comm_, &size);
-    const char* levels = dim == 2 ? "1" : "0";
+    const PetscInt levels = dim == 2 ? 1 : 0;
     if (size == 1) {
       TALUS_PETSC(PCSetType(pc, PCILU));
-      TALUS_PETSC(PCFactorSetLevels(pc, dim == 2 ? 1 : 0));
+      TALUS_PETSC(PCFactorSetLevels(pc, levels));
     } else {
       TALUS_PETSC(PCSetType(pc, PCBJACOBI));
-      // The blocks' own PCs exist only after set-up: their defaults go in
-      // the options database, unless given there already.
-      // Not when another PC is asked for: the option would stay unused
-      // (and -options_left would list it).
+      // The blocks' own PCs exist only after set-up: their default goes in
+      // the options database, unless given there already or another PC is
+      // asked for (the option would then stay unused, see -options_left).
       PetscBool given = PETSC_FALSE, other_pc = PETSC_FALSE;
       TALUS_PETSC(PetscOptionsHasName(nullptr, "talus_", "-sub_pc_factor_levels", &given));
       TALUS_PETSC(PetscOptionsHasName(nullptr, "talus_", "-pc_type", &other_pc));
-      if (!given && !other_pc) TALUS_PETSC(PetscOptionsSetValue(nullptr, "-talus_sub_pc_factor_levels", levels));
+      if (!given && !other_pc)
+        TALUS_PETSC(PetscOptionsSetValue(nullptr, "-talus_sub_pc_factor_levels", std::to_string(levels).c_str()));
     }
     TALUS_PETSC(KSPSetType(ksp, KSPGMRES));
     TALUS_PETSC(KSPSetPCSide(ksp, PC_RIGHT));
@@ -324,8 +326,8 @@ void NewtonSolver<dim>::configure(PetscInt unknowns) {
     TALUS_PETSC(KSPSetType(ksp, KSPPREONLY));
 }
 
-// Block AIJ (BAIJ, blocks of dim x dim) for a direct solve by PETSc's own LU
-// or MUMPS, or PETSc's incomplete LU, which factor it with block kernels: 1.3-1.7x faster factorization
+// Block AIJ (BAIJ, blocks of dim x dim) for PETSc's own (incomplete) LU or
+// MUMPS, which factor it with block kernels: 1.3-1.7x faster factorization
 // and assembly than AIJ (docs/benchmarks.md). AIJ for everything else: GAMG,
 // SuperLU, UMFPACK and KLU do not take BAIJ.
 template <int dim>

@@ -97,17 +97,16 @@ struct TransferConfig {
   double flip_blend = 0.99;  // FLIP fraction; 0 is PIC
 };
 
-// The default solver.direct_solver_limit: the largest system (unknowns) whose
-// Newton systems are solved by GMRES on kept (incomplete) LU factors; larger
-// ones by GMRES + GAMG (docs/solver.md#defaults). The kept ILU factors beat
-// GAMG at every size measured, in 2D (51,200 particles of a plastic column:
-// 12 times less CPU; a 1e5-particle elastic block: 2 times) and in 3D (a
-// 16,889-particle landslide: 8 times), so there is no limit in practice.
-constexpr int default_direct_solver_limit(int) { return 100000000; }
-
 struct SolverConfig {
   double active_mass_ratio = 1e-12;  // node active if m_i > ratio * max particle mass
-  int direct_solver_limit = 5000;    // unknowns; above: GMRES + GAMG by default (default_direct_solver_limit)
+  // The largest system (unknowns) whose Newton systems are solved by GMRES on
+  // kept (incomplete) LU factors; larger ones by GMRES + GAMG
+  // (docs/solver.md#defaults). The kept ILU factors beat GAMG at every size
+  // measured, in 2D (51,200 particles of a plastic column: 12 times less CPU;
+  // a 1e5-particle elastic block: 2 times) and in 3D (a 16,889-particle
+  // landslide: 8 times), so by default there is no limit in practice.
+  static constexpr int default_direct_solver_limit = 100000000;
+  int direct_solver_limit = default_direct_solver_limit;
   double balance_tolerance = 1e-8;   // Newton stops when sum |F| <= tolerance * impulse scale
   std::vector<std::pair<std::string, std::string>> petsc_options;  // without the talus_ prefix
 };
