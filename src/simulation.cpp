@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <iomanip>
+#include <limits>
 #include <ostream>
 #include <sstream>
 
@@ -118,6 +119,7 @@ void Simulation<dim>::repartition(const Ownership<dim>& ownership) {
                                           &ownership);
   particles_->migrate(*grid);
   grid_ = std::move(grid);
+  last_acceleration_.clear();  // the next step predicts gravity
   // The Newton system's rows live on the grid's ranks: build it anew.
   newton_->rebuild_next_step();
 }
@@ -153,6 +155,7 @@ StepReport Simulation<dim>::advance(double h) {
   }
   // 5. Freeze the committed particle state and 6. solve momentum, plasticity
   // and contact, F(v) = 0, by one semismooth Newton.
+  fields.last_acceleration = last_acceleration_;  // the predictor; kept for a retry after a cut-back
   MomentumSystem<dim> system(*grid_, *particles_, stencils, fields, active, materials_, gravity_, h,
                              config_.time.theta, std::move(contacts));
   if (active.global_count() > 0) {
@@ -164,6 +167,15 @@ StepReport Simulation<dim>::advance(double h) {
   report.solve_seconds = seconds_since(t1);
   report.contact_seconds += system.contact_seconds();
   if (!report.newton.converged) return report;
+  {
+    // The next step's predictor: this step's grid acceleration.
+    const auto& v_end = system.end_velocity();
+    const auto& v_start = system.start_velocity();
+    last_acceleration_.assign(v_end.size(), std::numeric_limits<double>::quiet_NaN());
+    for (int i : active.owned_points())
+      for (int a = 0; a < dim; ++a)
+        last_acceleration_[dim * i + a] = (v_end[dim * i + a] - v_start[dim * i + a]) / h;
+  }
   record_contact_forces(system, h);
   if (grid_output()) record_grid_points(fields, system.end_velocity(), &system, h);
 
@@ -386,6 +398,41 @@ void Simulation<dim>::restart(const std::string& checkpoint_path) {
     balance_ranks(true);
     rebalances_ = 0;
   }
+  restore_last_acceleration(*resume_);
+}
+
+template <int dim>
+void Simulation<dim>::store_last_acceleration(RunState& state) const {
+  state.accelerated_points.clear();
+  state.point_acceleration.clear();
+  const int n = static_cast<int>(last_acceleration_.size()) / dim;
+  for (int i = 0; i < n; ++i) {
+    if (!std::isfinite(last_acceleration_[dim * i])) continue;
+    const auto ijk = grid_->global_index(i);
+    long long index = 0;  // x fastest, as the DMDA's natural ordering
+    for (int a = dim - 1; a >= 0; --a) index = index * grid_->points()[a] + ijk[a];
+    state.accelerated_points.push_back(index);
+    for (int a = 0; a < dim; ++a) state.point_acceleration.push_back(last_acceleration_[dim * i + a]);
+  }
+}
+
+template <int dim>
+void Simulation<dim>::restore_last_acceleration(const RunState& state) {
+  last_acceleration_.clear();
+  if (state.accelerated_points.empty()) return;
+  last_acceleration_.assign(static_cast<std::size_t>(grid_->ghosted_count()) * dim,
+                            std::numeric_limits<double>::quiet_NaN());
+  for (std::size_t r = 0; r < state.accelerated_points.size(); ++r) {
+    long long index = state.accelerated_points[r];
+    std::array<int, dim> ijk;
+    for (int a = 0; a < dim; ++a) {
+      ijk[a] = static_cast<int>(index % grid_->points()[a]);
+      index /= grid_->points()[a];
+    }
+    if (!grid_->is_owned(ijk)) continue;
+    const int i = grid_->local_index(ijk);
+    for (int a = 0; a < dim; ++a) last_acceleration_[dim * i + a] = state.point_acceleration[dim * r + a];
+  }
 }
 
 template <int dim>
@@ -448,6 +495,7 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
     RunState state{time_, summary.steps, summary.cutbacks, s.step, s.patience, s.calm, s.since_growth, next_output,
                    vtk ? vtk->entries() : std::vector<std::pair<double, std::string>>{}, {}};
     for (const auto& axis : grid_->ownership()) state.grid_ownership.push_back(axis);
+    store_last_acceleration(state);
     std::filesystem::create_directories(config_.checkpoint.directory);
     char name[64];
     std::snprintf(name, sizeof name, "checkpoint_%06ld.h5", summary.steps);

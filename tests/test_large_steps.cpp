@@ -128,6 +128,9 @@ std::vector<StepReport> column_steps(const char* stagnation_iterations, long ste
 // after the 25 of the iteration limit, and nothing else changes: the
 // iterates are those of the run without the test, bit for bit.
 TEST_CASE("a cycling Newton step fails by stagnation, not at the iteration limit", "[solver][large_steps]") {
+  // One Newton attempt per step: from free fall only, so that a failed step
+  // is not tried again from the other predictor (docs/solver.md#the-predictor).
+  const testing::ScopedOption start("-talus_newton_predictor", "gravity");
   const std::vector<StepReport> stagnating = column_steps("6", 60);
   REQUIRE_FALSE(stagnating.back().converged);
   const std::size_t failed = stagnating.size() - 1;
@@ -150,4 +153,22 @@ TEST_CASE("a cycling Newton step fails by stagnation, not at the iteration limit
   CHECK(s.iterations == best + 6);
   REQUIRE(l.unbalances.size() >= u.size());
   for (std::size_t k = 0; k < u.size(); ++k) CHECK(u[k] == l.unbalances[k]);
+}
+
+// The Newton predictor (docs/solver.md#the-predictor): starting from the
+// last step's grid acceleration saves Newton iterations on the collapsing
+// column, where the velocity field changes smoothly from step to step.
+TEST_CASE("the last-acceleration predictor saves Newton iterations on the collapsing column", "[solver][large_steps]") {
+  const auto newton = [](const char* predictor) {
+    const testing::ScopedOption start("-talus_newton_predictor", predictor);
+    return collapse(0.0, 4e-3, 0.6).summary;
+  };
+  const RunSummary last = newton("last"), gravity = newton("gravity");
+  std::printf("predictor last: %ld steps, %ld cut-backs, %ld Newton; gravity: %ld steps, %ld cut-backs, %ld Newton\n",
+              last.steps, last.cutbacks, last.newton_iterations, gravity.steps, gravity.cutbacks,
+              gravity.newton_iterations);
+  // Measured 2026-11-25: 1,238 against 1,404 (12 % fewer), both 150 steps
+  // without cut-backs; at least 5 % fewer is asserted.
+  CHECK(last.newton_iterations < 0.95 * gravity.newton_iterations);
+  CHECK(last.cutbacks <= gravity.cutbacks);
 }

@@ -103,6 +103,9 @@ class Simulation {
  private:
   void check_finite() const;
   void repartition(const Ownership<dim>& ownership);
+  // last_acceleration_ to and from a checkpoint's rows (RunState).
+  void store_last_acceleration(RunState& state) const;
+  void restore_last_acceleration(const RunState& state);
   void record_contact_forces(const MomentumSystem<dim>& system, double h);
   void keep_particles_inside();
   bool grid_output() const { return config_.output.enabled && config_.output.grid; }
@@ -132,6 +135,10 @@ class Simulation {
   double mass_threshold_ = 0;
   double time_ = 0;
   std::unique_ptr<RunState> resume_;  // set by restart()
+  // The Newton predictor (GridFields::last_acceleration): the last accepted
+  // step's acceleration at this rank's owned active points (ghosted layout,
+  // NaN elsewhere; empty before the first step and after a re-partition).
+  std::vector<double> last_acceleration_;
   PetscInt last_system_size_ = 0;
   long rebalances_ = 0;
 };

@@ -2,6 +2,7 @@
 
 #include <hdf5.h>
 
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
@@ -144,6 +145,35 @@ void write_checkpoint(const std::string& path, const Particles<dim>& particles, 
       TALUS_PETSC(DMSwarmRestoreField(sw, f.swarm_name, &block, nullptr, &data));
       check(status, std::string("writing ") + f.file_name);
     }
+    {
+      // /grid: the Newton predictor's point accelerations, rows in rank order.
+      const long long rows = static_cast<long long>(state.accelerated_points.size());
+      long long first = 0, all = 0;
+      MPI_Exscan(&rows, &first, 1, MPI_LONG_LONG, MPI_SUM, comm);
+      if (rank == 0) first = 0;
+      MPI_Allreduce(&rows, &all, 1, MPI_LONG_LONG, MPI_SUM, comm);
+      Handle grid(H5Gcreate2(file.id, "grid", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, "group grid");
+      const auto write_rows = [&](const char* name, hid_t type, int columns, const void* data) {
+        const hsize_t dims[2] = {static_cast<hsize_t>(all), static_cast<hsize_t>(columns)};
+        Handle filespace(H5Screate_simple(2, dims, nullptr), H5Sclose, "file space");
+        Handle dset(H5Dcreate2(grid.id, name, type, filespace.id, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose,
+                    name);
+        const hsize_t start[2] = {static_cast<hsize_t>(first), 0};
+        const hsize_t count[2] = {static_cast<hsize_t>(rows), static_cast<hsize_t>(columns)};
+        Handle memspace(H5Screate_simple(2, count, nullptr), H5Sclose, "memory space");
+        if (rows > 0) {
+          check(H5Sselect_hyperslab(filespace.id, H5S_SELECT_SET, start, nullptr, count, nullptr), "hyperslab");
+        } else {
+          H5Sselect_none(filespace.id);
+          H5Sselect_none(memspace.id);
+        }
+        const double dummy = 0.0;
+        check(H5Dwrite(dset.id, type, memspace.id, filespace.id, dxpl.id, rows > 0 ? data : &dummy),
+              std::string("writing ") + name);
+      };
+      write_rows("accelerated_points", H5T_NATIVE_LLONG, 1, state.accelerated_points.data());
+      write_rows("point_acceleration", H5T_NATIVE_DOUBLE, dim, state.point_acceleration.data());
+    }
     Handle run(H5Gcreate2(file.id, "run", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, "group run");
     write_attribute(run.id, "dimension", H5T_NATIVE_INT, dim);
     write_attribute(run.id, "time", H5T_NATIVE_DOUBLE, state.time);
@@ -269,6 +299,44 @@ RunState read_checkpoint(const std::string& path, Particles<dim>& particles, con
   MPI_Allreduce(&kept, &all, 1, MPI_LONG_LONG, MPI_SUM, comm);
   if (all != static_cast<long long>(total))
     throw InputError(path + ": " + std::to_string(total - all) + " particles of the checkpoint lie outside this case's grid");
+  RunState result = state;
+  if (H5Lexists(file.id, "grid", H5P_DEFAULT) > 0) {
+    // Checkpoints from before the predictor have no /grid: the restart then
+    // predicts gravity for its first step.
+    Handle grid_group(H5Gopen2(file.id, "grid", H5P_DEFAULT), H5Gclose, "group grid");
+    const auto read_rows = [&](const char* name, hid_t type, int columns, std::size_t element, std::vector<char>& out) {
+      Handle dset(H5Dopen2(grid_group.id, name, H5P_DEFAULT), H5Dclose, std::string("dataset grid/") + name);
+      Handle space(H5Dget_space(dset.id), H5Sclose, "space");
+      hsize_t dims[2] = {0, 0};
+      if (H5Sget_simple_extent_ndims(space.id) != 2) throw InputError(path + ": bad dataset grid/" + name);
+      H5Sget_simple_extent_dims(space.id, dims, nullptr);
+      if (dims[1] != static_cast<hsize_t>(columns))
+        throw InputError(path + ": not a valid talus checkpoint: dataset grid/" + name + " has " +
+                         std::to_string(dims[1]) + " columns, expected " + std::to_string(columns));
+      out.resize(std::max<std::size_t>(1, dims[0] * dims[1] * element));
+      check(H5Dread(dset.id, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data()), name);
+      return dims[0];
+    };
+    std::vector<char> index_bytes, value_bytes;
+    const hsize_t rows = read_rows("accelerated_points", H5T_NATIVE_LLONG, 1, sizeof(long long), index_bytes);
+    if (read_rows("point_acceleration", H5T_NATIVE_DOUBLE, dim, sizeof(double), value_bytes) != rows)
+      throw InputError(path + ": not a valid talus checkpoint: grid/accelerated_points and grid/point_acceleration "
+                       "differ in length");
+    long long points = 1;
+    for (int a = 0; a < dim; ++a) points *= grid.points()[a];
+    const long long* index = reinterpret_cast<const long long*>(index_bytes.data());
+    const double* value = reinterpret_cast<const double*>(value_bytes.data());
+    for (hsize_t r = 0; r < rows; ++r) {
+      if (index[r] < 0 || index[r] >= points)
+        throw InputError(path + ": not a valid talus checkpoint: grid point " + std::to_string(index[r]) +
+                         " in grid/accelerated_points, the grid has " + std::to_string(points));
+      for (int a = 0; a < dim; ++a)
+        if (!std::isfinite(value[dim * r + a]))
+          throw InputError(path + ": not a valid talus checkpoint: a non-finite value in grid/point_acceleration");
+    }
+    result.accelerated_points.assign(index, index + rows);
+    result.point_acceleration.assign(value, value + dim * rows);
+  }
   TALUS_PETSC(DMSwarmSetLocalSizes(particles.swarm(), 0, 1024));
   particles.add(static_cast<PetscInt>(mine.size()));
   for (std::size_t k = 0; k < fields.size(); ++k) {
@@ -282,7 +350,7 @@ RunState read_checkpoint(const std::string& path, Particles<dim>& particles, con
       std::copy_n(buffer.data() + mine[q] * row, row, static_cast<char*>(data) + q * row);
     TALUS_PETSC(DMSwarmRestoreField(particles.swarm(), f.swarm_name, &block, nullptr, &data));
   }
-  return state;
+  return result;
 }
 
 template void write_checkpoint<2>(const std::string&, const Particles<2>&, const RunState&, MPI_Comm);

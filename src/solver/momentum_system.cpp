@@ -476,15 +476,26 @@ Mat MomentumSystem<dim>::create_matrix(MatType type) const {
 }
 
 template <int dim>
-Vec MomentumSystem<dim>::initial_guess() const {
+Vec MomentumSystem<dim>::initial_guess(bool last) const {
   Vec v = active_.create_vector();
   PetscScalar* x;
   TALUS_PETSC(VecGetArray(v, &x));
   const auto& owned = active_.owned_points();
-  for (std::size_t k = 0; k < owned.size(); ++k)
+  // The last step's acceleration continued (a first-order extrapolation of
+  // v in time) starts Newton closer to the solution than free fall does:
+  // fewer iterations where the material keeps decelerating on a floor or
+  // flowing steadily (docs/solver.md, "The predictor").
+  const std::vector<double>& last_a = fields_.last_acceleration;
+  const bool kept = last && last_a.size() == velocity_old_.size();
+  for (std::size_t k = 0; k < owned.size(); ++k) {
+    const int i = owned[k];
+    const double* a = kept ? last_a.data() + dim * i : nullptr;
+    bool known = a != nullptr;
+    for (int c = 0; c < dim && known; ++c) known = std::isfinite(a[c]);
     for (int c = 0; c < dim; ++c)
       x[dim * k + c] =
-          active_.constrained(owned[k], c) ? 0.0 : velocity_old_[dim * owned[k] + c] + h_ * gravity_[c];
+          active_.constrained(i, c) ? 0.0 : velocity_old_[dim * i + c] + h_ * (known ? a[c] : gravity_[c]);
+  }
   TALUS_PETSC(VecRestoreArray(v, &x));
   return v;
 }

@@ -165,6 +165,21 @@ PetscInt count_option(const char* name, PetscInt fallback) {
   return static_cast<PetscInt>(value);
 }
 
+// A talus-specific choice option -talus_<name> (one of `choices`, the first
+// the default), read once, before the run writes anything.
+std::string choice_option(const char* name, const std::vector<std::string>& choices) {
+  char text[64] = "";
+  PetscBool given = PETSC_FALSE;
+  TALUS_PETSC(PetscOptionsGetString(nullptr, "talus_", (std::string("-") + name).c_str(), text, sizeof text, &given));
+  if (!given) return choices.front();
+  for (const std::string& c : choices)
+    if (c == text) return c;
+  std::string list;
+  for (const std::string& c : choices) list += (list.empty() ? "" : ", ") + c;
+  throw InputError("PETSc option -talus_" + std::string(name) + ": expected one of " + list + ", got '" +
+                   std::string(text) + "'");
+}
+
 }  // namespace
 
 // The report of a step solved again: the retry's outcome, with the work of
@@ -185,6 +200,7 @@ NewtonSolver<dim>::NewtonSolver(MPI_Comm comm, PetscInt direct_limit, double bal
   factorization_.stale_limit = count_option("refactor_iterations", default_refactor_iterations);
   scale_.stagnation_window = count_option("stagnation_iterations", default_stagnation_iterations);
   fallback_limit_ = count_option("direct_fallback_limit", default_direct_fallback_limit);
+  predict_last_acceleration_ = choice_option("newton_predictor", {"last", "gravity"}) == "last";
 }
 
 template <int dim>
@@ -427,9 +443,36 @@ void NewtonSolver<dim>::build(MomentumSystem<dim>& system, PetscInt unknowns, bo
 }
 
 template <int dim>
-NewtonReport NewtonSolver<dim>::run_snes(MomentumSystem<dim>& system) {
+NewtonReport NewtonSolver<dim>::run_snes(MomentumSystem<dim>& system, Start start) {
   NewtonReport report;
-  Vec v = system.initial_guess();
+  Vec v = system.initial_guess(false);
+  started_from_last_ = starts_differ_ = false;
+  if (start != Start::gravity) {
+    // The last step's acceleration continued is the better start where the
+    // motion is resolved in time (a collapse decelerating on its floor, a
+    // steady flow); where it is not (an elastic block ringing faster than
+    // h), it can start Newton far off. Start from whichever of the two
+    // predictors is closer to balance (one residual more per step).
+    Vec last = system.initial_guess(true);
+    PetscBool same = PETSC_FALSE;
+    TALUS_PETSC(VecEqual(v, last, &same));
+    starts_differ_ = !same;
+    if (!same && start == Start::last) {
+      std::swap(v, last);
+      started_from_last_ = true;
+    } else if (!same) {
+      PetscReal at_gravity = 0.0, at_last = 0.0;
+      system.residual(v, F_);
+      TALUS_PETSC(VecNorm(F_, NORM_2, &at_gravity));
+      system.residual(last, F_);
+      TALUS_PETSC(VecNorm(F_, NORM_2, &at_last));
+      if (at_last < at_gravity) {
+        std::swap(v, last);
+        started_from_last_ = true;
+      }
+    }
+    TALUS_PETSC(VecDestroy(&last));
+  }
   context_.system = &system;
   context_.factorization = &factorization_;
   context_.linear_failures = &linear_failures_;
@@ -495,7 +538,8 @@ NewtonReport NewtonSolver<dim>::solve(MomentumSystem<dim>& system) {
   const PetscInt unknowns = system.active().global_count() * dim;
   const bool built = !same_unknowns(system);
   if (built) build(system, unknowns, false);
-  NewtonReport report = run_snes(system);
+  const Start start = predict_last_acceleration_ ? Start::closer : Start::gravity;
+  NewtonReport report = run_snes(system, start);
   report.structure_built = built;
   if (!report.converged && report.linear_failures > 0 && !solves_by_lu() && unknowns <= fallback_limit_) {
     // The preconditioner could not solve a Newton system: solve the step
@@ -503,9 +547,17 @@ NewtonReport NewtonSolver<dim>::solve(MomentumSystem<dim>& system) {
     // a system above -talus_direct_fallback_limit, whose LU costs more than
     // the cut-back that follows a failed step (docs/solver.md#failed-linear-solves).
     build(system, unknowns, true);
-    report = retried(report, run_snes(system));
+    report = retried(report, run_snes(system, start));
     report.structure_built = true;
     report.direct_fallback = true;
+  } else if (!report.converged && starts_differ_) {
+    // Semismooth Newton can stall at a kink of the contact or plastic laws
+    // from one start and not from another (a stiff block on a Coulomb
+    // incline stalls at |F| = 5e-4 from the last acceleration, converges in
+    // 4 iterations from free fall): try the other start before the step is
+    // cut back.
+    report = retried(report, run_snes(system, started_from_last_ ? Start::gravity : Start::last));
+    report.predictor_retry = true;
   }
   return report;
 }

@@ -32,6 +32,12 @@ struct RunState {
   // The grid's points per process column along each axis when the checkpoint
   // was written (empty in checkpoints from before balanced ranks).
   std::vector<std::vector<int>> grid_ownership;
+  // The Newton predictor: the last step's acceleration at the grid points
+  // where it is known (GridFields::last_acceleration), as rows of the global
+  // point index (x fastest) and dim components. On writing, each rank gives
+  // its owned points; on reading, every rank gets all rows.
+  std::vector<long long> accelerated_points;
+  std::vector<double> point_acceleration;
 };
 
 // The /run attributes alone (all ranks), e.g. to restore the grid's

@@ -52,7 +52,10 @@ class MomentumSystem {
   // Preallocated for this step's couplings, block size dim, of `type` (MATAIJ
   // or MATBAIJ) unless -talus_mat_type says otherwise.
   Mat create_matrix(MatType type = MATAIJ) const;
-  Vec initial_guess() const;  // v^n + h g on free components, 0 on constrained ones
+  // v^n + h a on free components, 0 on constrained ones: a the acceleration
+  // of the grid point in the last accepted step (GridFields::last_acceleration)
+  // if `last`, g where it is unknown or without `last`.
+  Vec initial_guess(bool last = true) const;
   double momentum_scale() const;  // sum_i m_i (|v_i^n| + h |g|), all ranks
   const ActiveSet<dim>& active() const { return active_; }
 

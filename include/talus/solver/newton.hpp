@@ -46,6 +46,7 @@ struct NewtonReport {
   long linear_failures = 0;            // linear solves that did not converge (the step is judged on U alone)
   long factorizations = 0;             // numeric LU factorizations in this step (reused-factorization mode)
   long fresh_resolves = 0;             // Newton systems solved again on fresh factors after stale ones failed
+  bool predictor_retry = false;        // Newton failed from one predictor and the step was solved from the other
 };
 
 template <int dim>
@@ -134,11 +135,19 @@ class NewtonSolver {
   void build(MomentumSystem<dim>& system, PetscInt unknowns, bool direct);
   void destroy();
   bool same_unknowns(const MomentumSystem<dim>& system) const;
-  NewtonReport run_snes(MomentumSystem<dim>& system);
+  // Newton's start (docs/solver.md#the-predictor): v^n + h g, v^n + h a_last,
+  // or whichever of the two has the smaller residual.
+  enum class Start { gravity, last, closer };
+  NewtonReport run_snes(MomentumSystem<dim>& system, Start start);
 
   MPI_Comm comm_;
   PetscInt direct_limit_;
   PetscInt fallback_limit_ = 0;  // -talus_direct_fallback_limit
+  // Newton starts from v^n + h a with a the grid point's acceleration of the
+  // last step (-talus_newton_predictor last, the default) or a = g (gravity).
+  bool predict_last_acceleration_ = true;
+  bool started_from_last_ = false;   // the last run_snes started from v^n + h a_last
+  bool starts_differ_ = false;       // and that differs from v^n + h g
   bool reuse_ = true;
   bool stale_structure_ = false;
   long builds_ = 0;

@@ -18,6 +18,11 @@ template <int dim>
 struct GridFields {
   std::vector<double> mass;      // m_i
   std::vector<double> velocity;  // v_i^n = (m v)_i / m_i, dim per point; 0 where m_i = 0
+  // The grid acceleration of the last accepted step, (v_i^n - v_i^{n-1}) / h
+  // of that step's solve, dim per point; NaN where the point was not active
+  // then. Not set by P2G (the run keeps it between steps); empty: unknown.
+  // The predictor of the Newton iteration (MomentumSystem::initial_guess).
+  std::vector<double> last_acceleration;
 };
 
 // Shape-function stencils of all local particles at their current positions.
