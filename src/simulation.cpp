@@ -493,7 +493,7 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
   const auto checkpoint = [&] {
     const StepController::State s = control.state();
     RunState state{time_, summary.steps, summary.cutbacks, s.step, s.patience, s.calm, s.since_growth, next_output,
-                   vtk ? vtk->entries() : std::vector<std::pair<double, std::string>>{}, {}};
+                   vtk ? vtk->entries() : std::vector<std::pair<double, std::string>>{}, {}, {}, {}};
     for (const auto& axis : grid_->ownership()) state.grid_ownership.push_back(axis);
     store_last_acceleration(state);
     std::filesystem::create_directories(config_.checkpoint.directory);

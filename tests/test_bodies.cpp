@@ -505,7 +505,7 @@ TEST_CASE("malformed particle files and polyhedra name the case line, the file l
       {"x y z volume x\n", "", at + ":1: column 'x' is named twice"},
       {"x y z volume vx\n", "", at + ":1: give all velocity columns (vx, vy, vz) or none"},
       {"x y z volume\n1 0.5 0.5 1e-3\n1 0.5 0.5\n", "", at + ":3: expected 4 fields (one per column), found 3"},
-      {"x y z volume\n1 0.5 0.5 -1e-3\n", "", at + ":2: volume '-1e-3' must be > 0"},
+      {"x y z volume\n1 0.5 0.5 -1e-3\n", "", at + ":2: volume '-1e-3' must be in [1e-30, 1e30] m^3"},
       {"x y z volume\n1 0.5 nan 1e-3\n", "", at + ":2: z 'nan' is not a finite number"},
       {"x y z volume\n1 0.5 1.0 1e-3\n", "", at + ":2: the particle lies outside the grid box (z = 1 is not in (0, 1))"},
       {"x y z volume vx vy vz\n1 0.5 0.5 1e-3 0 0 0\n", "    velocity: [1, 0, 0]\n",

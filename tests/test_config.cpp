@@ -149,13 +149,13 @@ TEST_CASE("error messages print a value as the file writes it, a computed number
   const std::string geostatic = "box: {lower: [0.5, 0], upper: [1.0, 0.5]}\n    initial_stress: geostatic";
   const std::vector<std::pair<std::string, std::string>> cases = {
       {replace(valid, "poisson_ratio: 0.3", "poisson_ratio: 0.5"), "materials[0].poisson_ratio = 0.5: must be in [0, 0.5)"},
-      {replace(valid, "density: 2000", "density: -2e3"), "materials[0].density = -2e3: must be > 0"},
-      {replace(valid, "youngs_modulus: 1.0e7", "youngs_modulus: 0"), "materials[0].youngs_modulus = 0: must be > 0"},
+      {replace(valid, "density: 2000", "density: -2e3"), "materials[0].density = -2e3: must be in [1e-6, 1e9] kg/m^3"},
+      {replace(valid, "youngs_modulus: 1.0e7", "youngs_modulus: 0"), "materials[0].youngs_modulus = 0: must be in [1e-6, 1e15] Pa"},
       {replace(valid, "step: 0.01", "step: -1e-12"), "time.step = -1e-12: must be > 0"},
       {replace(valid, "time: {end: 1.0, step: 0.01}", "time: {end: 1.0, step: 0.01, theta: 0.3}"),
        "time.theta = 0.3: must be in [0.5, 1]"},
       {replace(valid, "time: {end: 1.0, step: 0.01}", "time: {end: 1.0, step: 0.01, min_step_ratio: -1e-12}"),
-       "time.min_step_ratio = -1e-12: must be in (0, 1]"},
+       "time.min_step_ratio = -1e-12: must be in [1e-6, 1]"},
       {valid + "output: {interval: -0.25}\n", "output.interval = -0.25: must be >= 0"},
       {valid + "checkpoint: {interval: -3}\n", "checkpoint.interval = -3: must be >= 0"},
       {valid + "transfer: {flip_blend: 1.0000001}\n", "transfer.flip_blend = 1.0000001: must be in [0, 1]"},
@@ -488,4 +488,22 @@ TEST_CASE("contact keys: malformed values and terrain files name the case line a
   std::filesystem::create_directory(dir / "ground.asc");
   CHECK_THAT(error_in(valid_3d), Catch::Contains("obstacles[0].file = ground.asc: is a directory, not a terrain file"));
   std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("step and output counts are bounded, and the bounds can be raised explicitly", "[config]") {
+  // 1 s in steps of 1e-8 s: 1e8 steps, above the default 1e7.
+  const std::string many_steps = replace(valid, "time: {end: 1.0, step: 0.01}", "time: {end: 1.0, step: 1.0e-8}");
+  CHECK_THROWS_WITH(parse_case(many_steps, "c.yaml"),
+                    Catch::Contains("c.yaml:5: time.step = 1.0e-8: gives end / step = 1e+08 steps, more than "
+                                    "time.max_steps = 10000000"));
+  const CaseConfig raised = parse_case(
+      replace(valid, "time: {end: 1.0, step: 0.01}", "time: {end: 1.0, step: 1.0e-8, max_steps: 100000000}"), "c.yaml");
+  CHECK(raised.time.max_steps == 100000000);
+  // One output per microsecond of a 1 s run: 1e6 outputs, above the default 1e5.
+  const std::string many_outputs = valid + "output: {interval: 1.0e-6}\n";
+  CHECK_THROWS_WITH(parse_case(many_outputs, "c.yaml"),
+                    Catch::Contains("c.yaml:18: output.interval = 1.0e-6: gives time.end / interval = 1e+06 outputs, "
+                                    "more than output.max_outputs = 100000"));
+  CHECK(parse_case(valid + "output: {interval: 1.0e-6, max_outputs: 1000000}\n", "c.yaml").output.max_outputs ==
+        1000000);
 }

@@ -204,7 +204,11 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
     c.grid.upper = g.reals("upper", c.dim);
     for (int a = 0; a < c.dim; ++a)
       if (!(c.grid.upper[a] > c.grid.lower[a])) g.fail("upper", "must be above lower on every axis");
-    c.grid.cell_size = g.positive("cell_size", g.real("cell_size"));
+    c.grid.cell_size = g.real("cell_size");
+    // Cells from a micrometre to a thousand kilometres: beyond, particle
+    // volumes and masses under- or overflow.
+    if (!(c.grid.cell_size >= 1e-6 && c.grid.cell_size <= 1e6))
+      g.fail_value("cell_size", "must be in [1e-6, 1e6] m");
     for (int a = 0; a < c.dim; ++a) {
       const double n = (c.grid.upper[a] - c.grid.lower[a]) / c.grid.cell_size;
       if (std::abs(n - std::round(n)) > 1e-9 * n || std::round(n) < 3)
@@ -224,15 +228,36 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
     if (!(c.time.theta >= 0.5 && c.time.theta <= 1.0))
       t.fail_value("theta", "must be in [0.5, 1]");
     c.time.min_step_ratio = t.real("min_step_ratio", 1e-3);
-    if (!(c.time.min_step_ratio > 0 && c.time.min_step_ratio <= 1))
-      t.fail_value("min_step_ratio", "must be in (0, 1]");
+    // Above 1e-6 the smallest step is still far above the round-off of the
+    // time (end / step is bounded below), so t + h > t always.
+    if (!(c.time.min_step_ratio >= 1e-6 && c.time.min_step_ratio <= 1))
+      t.fail_value("min_step_ratio", "must be in [1e-6, 1]");
+    c.time.max_steps = t.integer("max_steps", TimeConfig::default_max_steps);
+    if (c.time.max_steps < 1 || c.time.max_steps > 1000000000L)
+      t.fail_value("max_steps", "must be in [1, 1e9]");
+    const double nominal_steps = c.time.end / c.time.step;
+    if (!(nominal_steps <= static_cast<double>(c.time.max_steps))) {
+      std::ostringstream m;
+      m << "gives end / step = " << nominal_steps << " steps, more than time.max_steps = " << c.time.max_steps
+        << "; raise time.max_steps to run that many";
+      t.fail_value("step", m.str());
+    }
     t.finish();
   }
   if (root.has("output")) {
     YamlSection o = root.section("output");
     c.output.directory = o.text("directory", "output");
     c.output.interval = o.real("interval", 0.0);
-    if (c.output.interval < 0) o.fail_value("interval", "must be >= 0");
+    if (!(c.output.interval >= 0)) o.fail_value("interval", "must be >= 0");
+    c.output.max_outputs = o.integer("max_outputs", OutputConfig::default_max_outputs);
+    if (c.output.max_outputs < 1 || c.output.max_outputs > 100000000L)
+      o.fail_value("max_outputs", "must be in [1, 1e8]");
+    if (c.output.interval > 0 && !(c.time.end / c.output.interval <= static_cast<double>(c.output.max_outputs))) {
+      std::ostringstream m;
+      m << "gives time.end / interval = " << c.time.end / c.output.interval << " outputs, more than output.max_outputs = "
+        << c.output.max_outputs << "; raise output.max_outputs to write that many";
+      o.fail_value("interval", m.str());
+    }
     c.output.enabled = o.boolean("enabled", true);
     c.output.grid = o.boolean("grid", false);
     o.finish();

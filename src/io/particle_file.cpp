@@ -53,7 +53,10 @@ ParticleTable read_particle_table(std::istream& in, int dim) {
                                       std::to_string(f.size())};
     for (const auto& name : coordinates) table.positions.push_back(file_number(f[column[name]], number, name));
     const double volume = file_number(f[column["volume"]], number, "volume");
-    if (!(volume > 0)) throw FileLineError{number, "volume '" + f[column["volume"]] + "' must be > 0"};
+    // As for the grid's cell size (docs/case_file.md): a volume of 1e-320 m^3
+    // would give a particle of zero mass.
+    if (!(volume >= 1e-30 && volume <= 1e30))
+      throw FileLineError{number, "volume '" + f[column["volume"]] + "' must be in [1e-30, 1e30] m^3"};
     table.volumes.push_back(volume);
     if (column.count(speeds[0]))
       for (const auto& name : speeds) table.velocities.push_back(file_number(f[column[name]], number, name));

@@ -6,10 +6,22 @@
 
 namespace talus {
 
+namespace {
+// Bounds far outside any soil, rock or debris, inside which the particle
+// masses, volumes and wave speeds of any grid talus accepts stay normal
+// double-precision numbers (docs/case_file.md#materials): 4.9e-324 kg/m3
+// passes "> 0" but gives particles of zero mass.
+double bounded(YamlSection& y, const char* key, double value, double low, double high, const std::string& range) {
+  if (!(value >= low && value <= high))
+    y.fail_value(key, "must be in " + range + " (far outside it the particle masses or wave speeds under- or overflow)");
+  return value;
+}
+}  // namespace
+
 ElasticParameters read_elastic_parameters(YamlSection& y) {
   ElasticParameters p;
-  p.density = y.positive("density", y.real("density"));
-  p.youngs_modulus = y.positive("youngs_modulus", y.real("youngs_modulus"));
+  p.density = bounded(y, "density", y.real("density"), 1e-6, 1e9, "[1e-6, 1e9] kg/m^3");
+  p.youngs_modulus = bounded(y, "youngs_modulus", y.real("youngs_modulus"), 1e-6, 1e15, "[1e-6, 1e15] Pa");
   p.poisson_ratio = y.real("poisson_ratio");
   if (!(p.poisson_ratio >= 0.0 && p.poisson_ratio < 0.5))
     y.fail_value("poisson_ratio", "must be in [0, 0.5)");

@@ -29,6 +29,10 @@ struct TimeConfig {
   double step = 0;
   double theta = 1.0;           // Moreau-Jean theta in [1/2, 1]
   double min_step_ratio = 1e-3;  // smallest cut-back step / step
+  // end / step above this is an input error (an overridable guard against
+  // runs that would never end, docs/case_file.md#time).
+  static constexpr long default_max_steps = 10000000;
+  long max_steps = default_max_steps;
 };
 
 struct OutputConfig {
@@ -36,6 +40,9 @@ struct OutputConfig {
   double interval = 0;  // 0: only the first and last states
   bool enabled = true;
   bool grid = false;    // also the grid points of the last step (grid.pvd)
+  // end / interval above this is an input error (docs/case_file.md#output).
+  static constexpr long default_max_outputs = 100000;
+  long max_outputs = default_max_outputs;
 };
 
 struct CheckpointConfig {
