@@ -368,6 +368,12 @@ void Simulation<dim>::restart(const std::string& checkpoint_path) {
   // comes back, so that every particle returns to its rank and the run
   // continues bit for bit; on another number, the ranks are balanced anew.
   const RunState header = read_run_state(checkpoint_path, comm_);
+  // The particle state belongs to one case: another grid, material list,
+  // body list, boundary, obstacle, gravity or transfer would run it on a
+  // wrong state (docs/checkpoints.md#restart-with-a-changed-case).
+  const std::string mismatch = fingerprint_mismatch(header, config_.fingerprint);
+  if (!mismatch.empty())
+    throw InputError(checkpoint_path + ": the checkpoint belongs to another case: " + mismatch);
   int ranks = 1;
   MPI_Comm_size(comm_, &ranks);
   const auto& stored = header.grid_ownership;
@@ -392,7 +398,14 @@ void Simulation<dim>::restart(const std::string& checkpoint_path) {
     }
     if (ownership != grid_->ownership()) repartition(ownership);
   }
-  resume_ = std::make_unique<RunState>(read_checkpoint(checkpoint_path, *particles_, *grid_, comm_));
+  CheckpointExpectations expected;
+  for (int a = 0; a < dim; ++a) {
+    expected.lower.push_back(grid_->lower()[a]);
+    expected.upper.push_back(grid_->upper()[a]);
+  }
+  for (const Material* m : materials_) expected.density.push_back(m->density());
+  for (const BodyConfig& b : config_.bodies) expected.body_material.push_back(b.material);
+  resume_ = std::make_unique<RunState>(read_checkpoint(checkpoint_path, *particles_, *grid_, expected, comm_));
   time_ = resume_->time;
   if (!restore) {
     balance_ranks(true);
@@ -492,10 +505,19 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
   }
   const auto checkpoint = [&] {
     const StepController::State s = control.state();
-    RunState state{time_, summary.steps, summary.cutbacks, s.step, s.patience, s.calm, s.since_growth, next_output,
-                   vtk ? vtk->entries() : std::vector<std::pair<double, std::string>>{}, {}, {}, {}};
+    RunState state;
+    state.time = time_;
+    state.steps = summary.steps;
+    state.cutbacks = summary.cutbacks;
+    state.step_size = s.step;
+    state.patience = s.patience;
+    state.calm = s.calm;
+    state.since_growth = s.since_growth;
+    state.next_output = next_output;
+    if (vtk) state.outputs = vtk->entries();
     for (const auto& axis : grid_->ownership()) state.grid_ownership.push_back(axis);
     store_last_acceleration(state);
+    state.fingerprint = config_.fingerprint;
     std::filesystem::create_directories(config_.checkpoint.directory);
     char name[64];
     std::snprintf(name, sizeof name, "checkpoint_%06ld.h5", summary.steps);

@@ -174,6 +174,17 @@ checkpoint=$(sed -n 's/.*continue with --restart \(.*\)$/\1/p' sig.log)
 [ -f "$checkpoint" ] || { echo "SIGINT: no checkpoint named in the log"; cat sig.log; exit 1; }
 [ ! -e "$checkpoint.tmp" ] || { echo "SIGINT: temporary checkpoint left behind"; exit 1; }
 h5dump -a /run/time "$checkpoint" | grep -q "DATA" || { echo "h5dump cannot read $checkpoint"; exit 1; }
+# The same checkpoint with another gravity in the case: exit 2, the section
+# named, nothing written (tests/test_checkpoint_damage.cpp has the rest).
+sed -e "s#gravity: .*#gravity: [0.0, -1.62]#" sig.yaml > sig_moon.yaml
+before=$(ls -l "$work/sig" | md5sum)
+set +e
+"$talus" run sig_moon.yaml --restart "$checkpoint" > moon.log 2>&1
+code=$?
+set -e
+[ "$code" -eq 2 ] || { echo "restart with another case: exit $code (want 2)"; cat moon.log; exit 1; }
+grep -q "the checkpoint belongs to another case: \`gravity\` differs" moon.log || { echo "restart with another case: message"; cat moon.log; exit 1; }
+[ "$(ls -l "$work/sig" | md5sum)" = "$before" ] || { echo "restart with another case wrote output"; exit 1; }
 # The serial checkpoint continues on two ranks: each keeps the particles in its cells.
 mpiexec -n 2 "$talus" run sig.yaml --restart "$checkpoint" > restart.log
 grep -q "restarting from $checkpoint" restart.log || { echo "restart not reported"; cat restart.log; exit 1; }

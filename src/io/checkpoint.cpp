@@ -2,6 +2,7 @@
 
 #include <hdf5.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -9,6 +10,7 @@
 #include <sstream>
 
 #include "talus/core/errors.hpp"
+#include "talus/io/yaml_section.hpp"
 #include "talus/materials/material.hpp"
 
 namespace talus {
@@ -84,18 +86,42 @@ void write_text_attribute(hid_t location, const char* name, const std::string& t
   check(H5Awrite(attr.id, type.id, text.c_str()), name);
 }
 
+// 2: with the case fingerprint and the talus version (2026-11-25); 1 (no
+// attribute): before.
+constexpr int checkpoint_format = 2;
+
+// A damaged checkpoint: what is wrong with it, for "not a valid talus checkpoint: <what>".
+struct Damaged : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+// An attribute of the expected class (integer, float or string) and a scalar
+// dataspace, checked before HDF5 reads it into memory of that class.
+Handle open_attribute(hid_t location, const char* name, H5T_class_t expected) {
+  if (H5Aexists(location, name) <= 0) throw Damaged(std::string("no attribute ") + name);
+  Handle attr(H5Aopen(location, name, H5P_DEFAULT), H5Aclose, std::string("attribute ") + name);
+  Handle type(H5Aget_type(attr.id), H5Tclose, "attribute type");
+  Handle space(H5Aget_space(attr.id), H5Sclose, "attribute space");
+  if (H5Tget_class(type.id) != expected || H5Sget_simple_extent_type(space.id) != H5S_SCALAR)
+    throw Damaged(std::string("attribute ") + name + " has the wrong type or shape");
+  return Handle(H5Aopen(location, name, H5P_DEFAULT), H5Aclose, std::string("attribute ") + name);
+}
+
 template <class T>
 T read_attribute(hid_t location, const char* name, hid_t type) {
   T value{};
-  Handle attr(H5Aopen(location, name, H5P_DEFAULT), H5Aclose, std::string("attribute ") + name);
+  const Handle attr = open_attribute(location, name, H5Tget_class(type));
   check(H5Aread(attr.id, type, &value), name);
   return value;
 }
 
 std::string read_text_attribute(hid_t location, const char* name) {
-  Handle attr(H5Aopen(location, name, H5P_DEFAULT), H5Aclose, std::string("attribute ") + name);
+  const Handle attr = open_attribute(location, name, H5T_STRING);
   Handle type(H5Aget_type(attr.id), H5Tclose, "attribute type");
-  std::string text(H5Tget_size(type.id), '\0');
+  if (H5Tis_variable_str(type.id) > 0) throw Damaged(std::string("attribute ") + name + " has the wrong type");
+  const std::size_t size = H5Tget_size(type.id);
+  if (size == 0 || size > (std::size_t(1) << 28)) throw Damaged(std::string("attribute ") + name + " has a bad size");
+  std::string text(size, '\0');
   check(H5Aread(attr.id, type.id, text.data()), name);
   text.resize(text.find('\0') == std::string::npos ? text.size() : text.find('\0'));
   return text;
@@ -194,6 +220,10 @@ void write_checkpoint(const std::string& path, const Particles<dim>& particles, 
       ownership << '\n';
     }
     write_text_attribute(run.id, "grid_ownership", ownership.str());
+    write_attribute(run.id, "checkpoint_format", H5T_NATIVE_INT, checkpoint_format);
+    write_text_attribute(run.id, "talus_version", TALUS_VERSION);
+    for (const auto& [section, text] : state.fingerprint)
+      write_text_attribute(run.id, ("case_" + section).c_str(), text);
   }
   // Every rank has closed the file; only then does it get its final name.
   MPI_Barrier(comm);
@@ -215,14 +245,23 @@ hid_t open_checkpoint(const std::string& path, MPI_Comm comm) {
 }
 
 RunState read_state(const std::string& path, hid_t file_id, int dim) {
-  const hid_t run_id = H5Gopen2(file_id, "run", H5P_DEFAULT);
-  if (run_id < 0) throw InputError(path + ": not a talus checkpoint (no /run group)");
-  Handle run(run_id, H5Gclose, "group run");
+  if (H5Lexists(file_id, "run", H5P_DEFAULT) <= 0) throw InputError(path + ": not a talus checkpoint (no /run group)");
+  Handle run(H5Gopen2(file_id, "run", H5P_DEFAULT), H5Gclose, "group run");
   const int file_dim = read_attribute<int>(run.id, "dimension", H5T_NATIVE_INT);
   if (file_dim != dim)
     throw InputError(path + ": a " + std::to_string(file_dim) + "D checkpoint, but the case is " +
                      std::to_string(dim) + "D");
+  if (H5Aexists(run.id, "checkpoint_format") <= 0)
+    throw InputError(path + ": a checkpoint written by a talus before 2026-11-25, without the case fingerprint "
+                            "that a restart checks; run the case again from t = 0");
+  const int format = read_attribute<int>(run.id, "checkpoint_format", H5T_NATIVE_INT);
+  if (format != checkpoint_format)
+    throw InputError(path + ": checkpoint format " + std::to_string(format) + ", this talus reads format " +
+                     std::to_string(checkpoint_format));
   RunState state;
+  state.talus_version = read_text_attribute(run.id, "talus_version");
+  for (const char* section : {"grid", "gravity", "materials", "bodies", "boundaries", "obstacles", "contact", "transfer"})
+    state.fingerprint.emplace_back(section, read_text_attribute(run.id, (std::string("case_") + section).c_str()));
   state.time = read_attribute<double>(run.id, "time", H5T_NATIVE_DOUBLE);
   state.steps = read_attribute<long>(run.id, "steps", H5T_NATIVE_LONG);
   state.cutbacks = read_attribute<long>(run.id, "cutbacks", H5T_NATIVE_LONG);
@@ -249,20 +288,114 @@ RunState read_state(const std::string& path, hid_t file_id, int dim) {
       state.grid_ownership.push_back(axis);
     }
   }
+  // The run state itself: a NaN time would end the run at once with exit 0,
+  // a zero step would never end it.
+  const auto fail = [&](const std::string& what) { throw Damaged(what); };
+  if (!(std::isfinite(state.time) && state.time >= 0)) fail("time = " + number_text(state.time));
+  if (state.steps < 0 || state.cutbacks < 0) fail("a negative step or cut-back count");
+  if (!(std::isfinite(state.step_size) && state.step_size > 0)) fail("step_size = " + number_text(state.step_size));
+  if (state.patience < 0 || state.calm < 0 || state.since_growth < 0) fail("a negative step-controller count");
+  if (!(std::isfinite(state.next_output) && state.next_output >= state.time))
+    fail("next_output = " + number_text(state.next_output) + " (time " + number_text(state.time) + ")");
+  for (const auto& [t, name] : state.outputs)
+    if (!(std::isfinite(t) && t >= 0 && t <= state.time) || name.empty() || name.find('/') != std::string::npos)
+      fail("an unreadable entry of the output list (" + number_text(t) + " " + name + ")");
   return state;
 }
 
 }  // namespace
 
-RunState read_run_state(const std::string& path, MPI_Comm comm) {
-  Handle file(open_checkpoint(path, comm), H5Fclose, "open");
-  Handle run(H5Gopen2(file.id, "run", H5P_DEFAULT), H5Gclose, "group run");
-  const int file_dim = read_attribute<int>(run.id, "dimension", H5T_NATIVE_INT);
-  return read_state(path, file.id, file_dim);
+namespace {
+
+// Runs `body`; a damaged file (an HDF5 call that failed, a value out of
+// range) becomes the input error "not a valid talus checkpoint" (exit 2).
+template <class F>
+auto as_input_error(const std::string& path, F&& body) {
+  try {
+    return body();
+  } catch (const InputError&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw InputError(path + ": not a valid talus checkpoint: " + e.what());
+  }
+}
+
+// Checks the datasets of all particles (every rank holds them all, so every
+// rank reaches the same verdict): finite values, positive masses and volumes,
+// masses that match this case's densities, indices in range, unique ids,
+// deformation gradients with a positive determinant, positions in the grid.
+template <int dim>
+void check_particles(const FieldSpec& f, const char* data, std::size_t count, const CheckpointExpectations& expected,
+                     std::vector<double>& mass, std::vector<double>& volume, std::vector<PetscInt>& material) {
+  const std::string name = f.file_name;
+  const auto fail = [&](std::size_t p, const std::string& what) {
+    throw Damaged(name + " of particle " + std::to_string(p) + " (row " + std::to_string(p) + "): " + what);
+  };
+  if (f.kind == Kind::real) {
+    const double* v = reinterpret_cast<const double*>(data);
+    for (std::size_t p = 0; p < count; ++p)
+      for (int c = 0; c < f.components; ++c)
+        if (!std::isfinite(v[p * f.components + c])) fail(p, "not a finite number");
+    const std::string field = f.swarm_name;
+    if (field == field::position) {
+      for (std::size_t p = 0; p < count; ++p)
+        for (int a = 0; a < dim; ++a)
+          if (!(v[dim * p + a] >= expected.lower[a] && v[dim * p + a] <= expected.upper[a]))
+            fail(p, number_text(v[dim * p + a]) + " lies outside this case's grid along axis " + std::to_string(a));
+    } else if (field == field::mass || field == field::initial_volume) {
+      for (std::size_t p = 0; p < count; ++p)
+        if (!(v[p] > 0)) fail(p, number_text(v[p]) + " is not positive");
+      (field == field::mass ? mass : volume).assign(v, v + count);
+    } else if (field == field::deformation_gradient) {
+      for (std::size_t p = 0; p < count; ++p) {
+        const Eigen::Map<const Eigen::Matrix<double, dim, dim, Eigen::RowMajor>> F(v + dim * dim * p);
+        if (!(F.determinant() > 0)) fail(p, "det F = " + number_text(F.determinant()) + " is not positive");
+      }
+    } else if (field == field::cumulative_plastic_strain || field == field::separation_strain) {
+      for (std::size_t p = 0; p < count; ++p)
+        if (v[p] < 0) fail(p, number_text(v[p]) + " is negative");
+    }
+  } else if (f.kind == Kind::index) {
+    const PetscInt* v = reinterpret_cast<const PetscInt*>(data);
+    const std::string field = f.swarm_name;
+    if (field == field::material_id) {
+      for (std::size_t p = 0; p < count; ++p)
+        if (v[p] < 0 || v[p] >= static_cast<PetscInt>(expected.density.size()))
+          fail(p, std::to_string(v[p]) + " is not a material of this case (it has " +
+                      std::to_string(expected.density.size()) + ")");
+      material.assign(v, v + count);
+      if (mass.size() == count && volume.size() == count)
+        for (std::size_t p = 0; p < count; ++p) {
+          // Seeding sets m = rho V0, and neither changes during a run: another
+          // density (or material list) in the case would change the masses.
+          const double rho = expected.density[material[p]];
+          if (std::abs(mass[p] - rho * volume[p]) > 1e-9 * mass[p])
+            fail(p, "its mass " + number_text(mass[p]) + " is not this case's density " + number_text(rho) +
+                        " of material " + std::to_string(material[p]) + " times its volume " +
+                        number_text(volume[p]));
+        }
+    } else if (field == field::body_id) {
+      for (std::size_t p = 0; p < count; ++p) {
+        if (v[p] < 0 || v[p] >= static_cast<PetscInt>(expected.body_material.size()))
+          fail(p, std::to_string(v[p]) + " is not a body of this case (it has " +
+                      std::to_string(expected.body_material.size()) + ")");
+        if (!material.empty() && expected.body_material[v[p]] != material[p])
+          fail(p, "body " + std::to_string(v[p]) + " is not of material " + std::to_string(material[p]));
+      }
+    }
+  } else {
+    const std::int64_t* v = reinterpret_cast<const std::int64_t*>(data);
+    std::vector<std::int64_t> ids(v, v + count);
+    std::sort(ids.begin(), ids.end());
+    if (!ids.empty() && ids.front() < 0) throw Damaged(name + ": a negative particle id");
+    const auto twin = std::adjacent_find(ids.begin(), ids.end());
+    if (twin != ids.end()) throw Damaged(name + ": particle id " + std::to_string(*twin) + " appears twice");
+  }
 }
 
 template <int dim>
-RunState read_checkpoint(const std::string& path, Particles<dim>& particles, const Grid<dim>& grid, MPI_Comm comm) {
+RunState read_particles(const std::string& path, Particles<dim>& particles, const Grid<dim>& grid,
+                        const CheckpointExpectations& expected, MPI_Comm comm) {
   int rank;
   MPI_Comm_rank(comm, &rank);
   Handle file(open_checkpoint(path, comm), H5Fclose, "open");
@@ -274,11 +407,14 @@ RunState read_checkpoint(const std::string& path, Particles<dim>& particles, con
     Handle dset(H5Dopen2(group.id, f.file_name, H5P_DEFAULT), H5Dclose, std::string("dataset ") + f.file_name);
     Handle space(H5Dget_space(dset.id), H5Sclose, "space");
     hsize_t dims[2] = {0, 0};
-    if (H5Sget_simple_extent_ndims(space.id) != 2) throw InputError(path + ": bad dataset " + f.file_name);
+    if (H5Sget_simple_extent_ndims(space.id) != 2) throw Damaged(std::string("dataset ") + f.file_name + " is not a table");
     H5Sget_simple_extent_dims(space.id, dims, nullptr);
     if (dims[1] != static_cast<hsize_t>(f.components))
-      throw InputError(path + ": dataset " + f.file_name + " has " + std::to_string(dims[1]) + " components, expected " +
-                       std::to_string(f.components));
+      throw Damaged(std::string("dataset ") + f.file_name + " has " + std::to_string(dims[1]) + " components, expected " +
+                    std::to_string(f.components));
+    // The particle count bounds the read: no damaged header may make it allocate without end.
+    if (dims[0] > (hsize_t(1) << 31)) throw Damaged(std::string("dataset ") + f.file_name + " claims " +
+                                                    std::to_string(dims[0]) + " particles");
     buffer.resize(std::max<std::size_t>(1, dims[0] * dims[1] * element_size(f.kind)));
     check(H5Dread(dset.id, memory_type(f.kind), H5S_ALL, H5S_ALL, H5P_DEFAULT, buffer.data()), f.file_name);
     return dims[0];
@@ -286,6 +422,10 @@ RunState read_checkpoint(const std::string& path, Particles<dim>& particles, con
   const auto fields = checkpoint_fields<dim>();
   std::vector<char> buffer;
   const hsize_t total = read_field(fields[0], buffer);
+  if (total == 0) throw Damaged("no particles");
+  std::vector<double> mass, volume;
+  std::vector<PetscInt> material;
+  check_particles<dim>(fields[0], buffer.data(), total, expected, mass, volume, material);
   std::vector<std::size_t> mine;
   {
     const double* x = reinterpret_cast<const double*>(buffer.data());
@@ -332,7 +472,7 @@ RunState read_checkpoint(const std::string& path, Particles<dim>& particles, con
                          " in grid/accelerated_points, the grid has " + std::to_string(points));
       for (int a = 0; a < dim; ++a)
         if (!std::isfinite(value[dim * r + a]))
-          throw InputError(path + ": not a valid talus checkpoint: a non-finite value in grid/point_acceleration");
+          throw Damaged("a non-finite value in grid/point_acceleration");
     }
     result.accelerated_points.assign(index, index + rows);
     result.point_acceleration.assign(value, value + dim * rows);
@@ -341,7 +481,8 @@ RunState read_checkpoint(const std::string& path, Particles<dim>& particles, con
   particles.add(static_cast<PetscInt>(mine.size()));
   for (std::size_t k = 0; k < fields.size(); ++k) {
     const FieldSpec& f = fields[k];
-    if (k > 0 && read_field(f, buffer) != total) throw InputError(path + ": datasets of different lengths");
+    if (k > 0 && read_field(f, buffer) != total) throw Damaged("datasets of different lengths");
+    if (k > 0) check_particles<dim>(f, buffer.data(), total, expected, mass, volume, material);
     void* data = nullptr;
     PetscInt block = 0;
     TALUS_PETSC(DMSwarmGetField(particles.swarm(), f.swarm_name, &block, nullptr, &data));
@@ -353,9 +494,52 @@ RunState read_checkpoint(const std::string& path, Particles<dim>& particles, con
   return result;
 }
 
+}  // namespace
+
+RunState read_run_state(const std::string& path, MPI_Comm comm) {
+  return as_input_error(path, [&] {
+    Handle file(open_checkpoint(path, comm), H5Fclose, "open");
+    if (H5Lexists(file.id, "run", H5P_DEFAULT) <= 0) throw InputError(path + ": not a talus checkpoint (no /run group)");
+    Handle run(H5Gopen2(file.id, "run", H5P_DEFAULT), H5Gclose, "group run");
+    const int file_dim = read_attribute<int>(run.id, "dimension", H5T_NATIVE_INT);
+    if (file_dim != 2 && file_dim != 3) throw Damaged("dimension = " + std::to_string(file_dim));
+    return read_state(path, file.id, file_dim);
+  });
+}
+
+std::string fingerprint_mismatch(const RunState& checkpoint, const CaseFingerprint& config) {
+  const auto shortened = [](const std::string& text) {
+    return text.size() <= 160 ? text : text.substr(0, 157) + "...";
+  };
+  std::string message;
+  for (const auto& [section, text] : config) {
+    std::string stored = "(none)";
+    for (const auto& [s, t] : checkpoint.fingerprint)
+      if (s == section) stored = t;
+    if (stored == text) continue;
+    // The first difference, so that a long section shows where it changed.
+    std::size_t at = 0;
+    while (at < text.size() && at < stored.size() && text[at] == stored[at]) ++at;
+    const std::size_t from = at > 60 ? at - 60 : 0;
+    message += std::string(message.empty() ? "" : "; ") + "`" + section + "` differs: checkpoint " +
+               (from ? "..." : "") + shortened(stored.substr(from)) + ", this case " + (from ? "..." : "") +
+               shortened(text.substr(from));
+  }
+  if (checkpoint.talus_version != TALUS_VERSION)
+    message += std::string(message.empty() ? "" : "; ") + "written by talus " + checkpoint.talus_version +
+               ", this is talus " + TALUS_VERSION;
+  return message;
+}
+
+template <int dim>
+RunState read_checkpoint(const std::string& path, Particles<dim>& particles, const Grid<dim>& grid,
+                         const CheckpointExpectations& expected, MPI_Comm comm) {
+  return as_input_error(path, [&] { return read_particles(path, particles, grid, expected, comm); });
+}
+
 template void write_checkpoint<2>(const std::string&, const Particles<2>&, const RunState&, MPI_Comm);
 template void write_checkpoint<3>(const std::string&, const Particles<3>&, const RunState&, MPI_Comm);
-template RunState read_checkpoint<2>(const std::string&, Particles<2>&, const Grid<2>&, MPI_Comm);
-template RunState read_checkpoint<3>(const std::string&, Particles<3>&, const Grid<3>&, MPI_Comm);
+template RunState read_checkpoint<2>(const std::string&, Particles<2>&, const Grid<2>&, const CheckpointExpectations&, MPI_Comm);
+template RunState read_checkpoint<3>(const std::string&, Particles<3>&, const Grid<3>&, const CheckpointExpectations&, MPI_Comm);
 
 }  // namespace talus

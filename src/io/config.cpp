@@ -4,6 +4,8 @@
 #include <cctype>
 #include <charconv>
 #include <cmath>
+#include <cstdint>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -191,6 +193,68 @@ ObstacleConfig parse_obstacle(YamlSection& o, const CaseConfig& c) {
   return ob;
 }
 
+// FNV-1a (64 bit) of a data file's bytes: a data file that changes under a
+// checkpoint changes its case fingerprint.
+std::string file_hash(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return "unreadable";
+  std::uint64_t h = 1469598103934665603ULL;
+  char buffer[65536];
+  while (in) {
+    in.read(buffer, sizeof buffer);
+    for (std::streamsize i = 0; i < in.gcount(); ++i) {
+      h ^= static_cast<unsigned char>(buffer[i]);
+      h *= 1099511628211ULL;
+    }
+  }
+  char text[24];
+  std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(h));
+  return text;
+}
+
+// A canonical text of a YAML node: the same for the same content however it
+// is written (key order, flow or block style, 1e3 or 1000).
+std::string canonical(const YAML::Node& node, const std::filesystem::path& base, const std::string& key) {
+  switch (node.Type()) {
+    case YAML::NodeType::Scalar: {
+      const std::string& s = node.Scalar();
+      double value = 0.0;
+      const auto [end, error] = std::from_chars(s.data(), s.data() + s.size(), value);
+      if (error == std::errc() && end == s.data() + s.size() && !s.empty()) return number_text(value);
+      std::string text = "'" + s + "'";
+      if (key == "file" || key == "particles") {
+        std::filesystem::path path(s);
+        if (path.is_relative()) path = base / path;
+        text += " (contents " + file_hash(path) + ")";
+      }
+      return text;
+    }
+    case YAML::NodeType::Sequence: {
+      std::string text = "[";
+      for (std::size_t i = 0; i < node.size(); ++i) text += (i ? ", " : "") + canonical(node[i], base, key);
+      return text + "]";
+    }
+    case YAML::NodeType::Map: {
+      std::map<std::string, std::string> entries;
+      for (auto it = node.begin(); it != node.end(); ++it)
+        entries[it->first.Scalar()] = canonical(it->second, base, it->first.Scalar());
+      std::string text = "{";
+      for (const auto& [k, v] : entries) text += (text.size() > 1 ? ", " : "") + k + ": " + v;
+      return text + "}";
+    }
+    default:
+      return "~";
+  }
+}
+
+CaseFingerprint case_fingerprint(const YAML::Node& doc, const std::string& case_file) {
+  const std::filesystem::path base = std::filesystem::path(case_file).parent_path();
+  CaseFingerprint f;
+  for (const char* section : {"grid", "gravity", "materials", "bodies", "boundaries", "obstacles", "contact", "transfer"})
+    f.emplace_back(section, doc[section] ? canonical(doc[section], base, section) : "default");
+  return f;
+}
+
 CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
   CaseConfig c;
   c.source_file = root.file();
@@ -350,6 +414,7 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
     q.finish();
   }
   root.finish();
+  c.fingerprint = case_fingerprint(doc, c.source_file);
   return c;
 }
 

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "talus/grid/grid.hpp"
+#include "talus/io/config.hpp"
 #include "talus/particles/particles.hpp"
 
 namespace talus {
@@ -38,6 +39,18 @@ struct RunState {
   // its owned points; on reading, every rank gets all rows.
   std::vector<long long> accelerated_points;
   std::vector<double> point_acceleration;
+  // What the particle state depends on (CaseConfig::fingerprint), and the
+  // talus that wrote it: a restart refuses a checkpoint of another case.
+  CaseFingerprint fingerprint;
+  std::string talus_version;
+};
+
+// What a restart checks the checkpoint's particles against: this case's
+// grid box, materials (densities) and bodies (their materials).
+struct CheckpointExpectations {
+  std::vector<double> lower, upper;
+  std::vector<double> density;      // per material
+  std::vector<int> body_material;   // per body
 };
 
 // The /run attributes alone (all ranks), e.g. to restore the grid's
@@ -47,8 +60,15 @@ RunState read_run_state(const std::string& path, MPI_Comm comm);
 template <int dim>
 void write_checkpoint(const std::string& path, const Particles<dim>& particles, const RunState& state, MPI_Comm comm);
 
-// Replaces the particles with those of the checkpoint (all ranks).
+// Replaces the particles with those of the checkpoint (all ranks), after
+// checking every dataset (shape, finiteness, ranges, consistency with
+// `expected`); a violation is an InputError "not a valid talus checkpoint".
 template <int dim>
-RunState read_checkpoint(const std::string& path, Particles<dim>& particles, const Grid<dim>& grid, MPI_Comm comm);
+RunState read_checkpoint(const std::string& path, Particles<dim>& particles, const Grid<dim>& grid,
+                         const CheckpointExpectations& expected, MPI_Comm comm);
+
+// The sections of `config` whose text differs from the checkpoint's, as one
+// message ("" when the checkpoint belongs to this case).
+std::string fingerprint_mismatch(const RunState& checkpoint, const CaseFingerprint& config);
 
 }  // namespace talus

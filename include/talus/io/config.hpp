@@ -126,8 +126,16 @@ struct ParallelConfig {
   double imbalance_limit = 1.2;
 };
 
+// What a checkpoint's particle state depends on (docs/checkpoints.md#restart-with-a-changed-case):
+// per section of the case file (grid, gravity, materials, bodies, boundaries,
+// obstacles, contact, transfer), a canonical text of its YAML (maps sorted
+// by key, numbers in shortest round-trip form, data files by a hash of their
+// contents), "default" where the section is absent.
+using CaseFingerprint = std::vector<std::pair<std::string, std::string>>;
+
 struct CaseConfig {
   std::string source_file;
+  CaseFingerprint fingerprint;
   int dim = 2;
   GridConfig grid;
   TimeConfig time;

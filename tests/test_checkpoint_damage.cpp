@@ -1,0 +1,200 @@
+// Damaged checkpoints and restarts with another case (issue 14, items 1 and
+// 2; docs/checkpoints.md): every damage is an InputError "not a valid talus
+// checkpoint: <what>" (exit 2 in the command line), never a crash, a hang or
+// a run on a wrong state; a case that changed what the particle state
+// depends on is refused with the sections that differ; the keys that may
+// change on restart (time, output, checkpoint, solver, parallel) and a
+// different way of writing the same case are accepted.
+#include <hdf5.h>
+
+#include <catch2/catch.hpp>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <limits>
+
+#include "talus/simulation.hpp"
+#include "test_support.hpp"
+
+using namespace talus;
+
+namespace {
+
+const std::string dir = "test_checkpoint_damage";
+
+std::string column(const std::string& grid = "grid: {lower: [0, 0], upper: [1.0, 0.6], cell_size: 0.05}\n",
+                   const std::string& materials =
+                       "materials: [{name: sand, model: drucker_prager, density: 2000, youngs_modulus: 1.0e6,"
+                       " poisson_ratio: 0.3, friction_angle: 30, dilatancy_angle: 0, cohesion: 0}]\n",
+                   const std::string& gravity = "gravity: [0, -9.81]\n",
+                   const std::string& time = "time: {end: 0.015625, step: 0.00390625}\n") {
+  return grid + time + "output: {enabled: false}\n" + "checkpoint: {enabled: true, directory: " + dir + "}\n" +
+         gravity + materials + "bodies: [{name: column, material: sand, box: {lower: [0, 0], upper: [0.3, 0.4]}}]\n" +
+         "boundaries: {y_min: fixed}\n";
+}
+
+// The checkpoint of 4 steps of the column, written once.
+const std::string& written_checkpoint() {
+  static const std::string path = [] {
+    std::filesystem::remove_all(dir);
+    Simulation<2> run(testing::case_from_yaml(column()), PETSC_COMM_SELF);
+    const RunSummary s = run.run(nullptr);
+    REQUIRE(std::filesystem::exists(s.last_checkpoint));
+    return s.last_checkpoint;
+  }();
+  return path;
+}
+
+// A copy of the checkpoint, changed by `damage` (given the open file).
+std::string damaged(const std::string& name, const std::function<void(hid_t)>& damage) {
+  const std::string path = dir + "/" + name + ".h5";
+  std::filesystem::copy_file(written_checkpoint(), path, std::filesystem::copy_options::overwrite_existing);
+  const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+  REQUIRE(file >= 0);
+  damage(file);
+  REQUIRE(H5Fclose(file) >= 0);
+  return path;
+}
+
+// Overwrites element (row, column) of /particles/<dataset> with `value`.
+template <class T>
+void set_element(hid_t file, const char* dataset, hsize_t row, hsize_t column, T value, hid_t type) {
+  const hid_t d = H5Dopen2(file, (std::string("particles/") + dataset).c_str(), H5P_DEFAULT);
+  REQUIRE(d >= 0);
+  const hid_t space = H5Dget_space(d);
+  const hsize_t start[2] = {row, column}, count[2] = {1, 1};
+  REQUIRE(H5Sselect_hyperslab(space, H5S_SELECT_SET, start, nullptr, count, nullptr) >= 0);
+  const hid_t memory = H5Screate_simple(2, count, nullptr);
+  REQUIRE(H5Dwrite(d, type, memory, space, H5P_DEFAULT, &value) >= 0);
+  H5Sclose(memory);
+  H5Sclose(space);
+  H5Dclose(d);
+}
+
+template <class T>
+void set_run_attribute(hid_t file, const char* name, T value, hid_t type) {
+  const hid_t run = H5Gopen2(file, "run", H5P_DEFAULT);
+  const hid_t a = H5Aopen(run, name, H5P_DEFAULT);
+  REQUIRE(a >= 0);
+  REQUIRE(H5Awrite(a, type, &value) >= 0);
+  H5Aclose(a);
+  H5Gclose(run);
+}
+
+void restart_fails(const std::string& path, const std::string& message, const std::string& case_text = column()) {
+  Simulation<2> sim(testing::case_from_yaml(case_text), PETSC_COMM_SELF);
+  CHECK_THROWS_AS(sim.restart(path), InputError);
+  CHECK_THROWS_WITH(sim.restart(path), Catch::Contains(message));
+}
+
+}  // namespace
+
+TEST_CASE("a damaged checkpoint is refused with what is wrong with it", "[checkpoint]") {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const std::string invalid = "not a valid talus checkpoint: ";
+  SECTION("a material index out of range (was a heap overflow)") {
+    restart_fails(damaged("material", [](hid_t f) { set_element<int>(f, "material_id", 0, 0, 5, H5T_NATIVE_INT); }),
+                  invalid + "material_id of particle 0 (row 0): 5 is not a material of this case (it has 1)");
+  }
+  SECTION("a body index out of range") {
+    restart_fails(damaged("body", [](hid_t f) { set_element<int>(f, "body_id", 7, 0, -1, H5T_NATIVE_INT); }),
+                  invalid + "body_id of particle 7 (row 7): -1 is not a body of this case (it has 1)");
+  }
+  SECTION("a NaN time (ran 0 steps with exit 0)") {
+    restart_fails(damaged("time", [&](hid_t f) { set_run_attribute(f, "time", nan, H5T_NATIVE_DOUBLE); }),
+                  invalid + "time = nan");
+  }
+  SECTION("a zero step size (hung)") {
+    restart_fails(damaged("step", [](hid_t f) { set_run_attribute(f, "step_size", 0.0, H5T_NATIVE_DOUBLE); }),
+                  invalid + "step_size = 0");
+  }
+  SECTION("a negative mass") {
+    restart_fails(damaged("mass", [](hid_t f) { set_element(f, "mass", 3, 0, -1.0, H5T_NATIVE_DOUBLE); }),
+                  invalid + "mass of particle 3 (row 3): -1 is not positive");
+  }
+  SECTION("a mass that is not the density times the volume") {
+    restart_fails(damaged("mass2", [](hid_t f) { set_element(f, "mass", 2, 0, 1.0, H5T_NATIVE_DOUBLE); }),
+                  invalid + "material_id of particle 2 (row 2): its mass 1 is not this case's density 2000");
+  }
+  SECTION("a singular deformation gradient") {
+    restart_fails(damaged("singular",
+                          [](hid_t f) {
+                            for (hsize_t c = 0; c < 4; ++c)
+                              set_element(f, "deformation_gradient", 4, c, 0.0, H5T_NATIVE_DOUBLE);
+                          }),
+                  invalid + "deformation_gradient of particle 4 (row 4): det F = 0 is not positive");
+  }
+  SECTION("a position outside the grid (was moved onto the grid's edge)") {
+    restart_fails(damaged("outside", [](hid_t f) { set_element(f, "position", 0, 0, 10.0, H5T_NATIVE_DOUBLE); }),
+                  invalid + "position of particle 0 (row 0): 10 lies outside this case's grid along axis 0");
+  }
+  SECTION("a non-finite velocity") {
+    restart_fails(damaged("velocity", [&](hid_t f) { set_element(f, "velocity", 5, 1, nan, H5T_NATIVE_DOUBLE); }),
+                  invalid + "velocity of particle 5 (row 5): not a finite number");
+  }
+  SECTION("two particles with one id") {
+    restart_fails(damaged("ids", [](hid_t f) { set_element<std::int64_t>(f, "particle_id", 1, 0, 0, H5T_NATIVE_INT64); }),
+                  invalid + "particle_id: particle id 0 appears twice");
+  }
+  SECTION("an attribute of the wrong type (a flipped type was a SEGV inside H5Aread)") {
+    const std::string path = damaged("type", [](hid_t f) {
+      const hid_t run = H5Gopen2(f, "run", H5P_DEFAULT);
+      REQUIRE(H5Adelete(run, "steps") >= 0);
+      const hid_t space = H5Screate_simple(1, std::array<hsize_t, 1>{3}.data(), nullptr);
+      const hid_t a = H5Acreate2(run, "steps", H5T_NATIVE_DOUBLE, space, H5P_DEFAULT, H5P_DEFAULT);
+      const double three[3] = {1, 2, 3};
+      REQUIRE(H5Awrite(a, H5T_NATIVE_DOUBLE, three) >= 0);
+      H5Aclose(a);
+      H5Sclose(space);
+      H5Gclose(run);
+    });
+    restart_fails(path, invalid + "attribute steps has the wrong type or shape");
+  }
+  SECTION("a missing dataset") {
+    restart_fails(damaged("missing", [](hid_t f) { REQUIRE(H5Ldelete(f, "particles/kirchhoff_stress", H5P_DEFAULT) >= 0); }),
+                  invalid);
+  }
+  SECTION("not an HDF5 file at all") {
+    const std::string path = dir + "/text.h5";
+    std::ofstream(path) << "not hdf5\n";
+    restart_fails(path, "not an HDF5 checkpoint");
+  }
+}
+
+TEST_CASE("a restart with another case is refused, naming what differs", "[checkpoint]") {
+  const std::string& path = written_checkpoint();
+  const std::string refused = "the checkpoint belongs to another case: ";
+  SECTION("the grid extended by 1 m") {
+    restart_fails(path, refused + "`grid` differs",
+                  column("grid: {lower: [-1, 0], upper: [1.0, 0.6], cell_size: 0.05}\n"));
+  }
+  SECTION("another density") {
+    restart_fails(path, refused + "`materials` differs",
+                  column("grid: {lower: [0, 0], upper: [1.0, 0.6], cell_size: 0.05}\n",
+                         "materials: [{name: sand, model: drucker_prager, density: 2100, youngs_modulus: 1.0e6,"
+                         " poisson_ratio: 0.3, friction_angle: 30, dilatancy_angle: 0, cohesion: 0}]\n"));
+  }
+  SECTION("another gravity") {
+    restart_fails(path, refused + "`gravity` differs",
+                  column("grid: {lower: [0, 0], upper: [1.0, 0.6], cell_size: 0.05}\n",
+                         "materials: [{name: sand, model: drucker_prager, density: 2000, youngs_modulus: 1.0e6,"
+                         " poisson_ratio: 0.3, friction_angle: 30, dilatancy_angle: 0, cohesion: 0}]\n",
+                         "gravity: [0, -1.62]\n"));
+  }
+  SECTION("the same case written differently, run longer with another step, is accepted") {
+    // Keys reordered, block style, 2e3 for 2000: the same fingerprint.
+    const std::string same = column(
+        "grid:\n  cell_size: 5.0e-2\n  upper: [1, 0.6]\n  lower: [0.0, 0.0]\n",
+        "materials:\n  - {model: drucker_prager, name: sand, density: 2e3, youngs_modulus: 1000000,"
+        " poisson_ratio: 0.3, friction_angle: 30, dilatancy_angle: 0, cohesion: 0}\n",
+        "gravity: [0, -9.81]\n", "time: {end: 0.03125, step: 0.001953125}\n");
+    Simulation<2> sim(testing::case_from_yaml(same), PETSC_COMM_SELF);
+    REQUIRE_NOTHROW(sim.restart(path));
+    const RunSummary s = sim.run(nullptr);
+    CHECK(sim.time() == Approx(0.03125));
+    CHECK(s.steps > 4);
+  }
+}
