@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <iomanip>
+#include <iostream>
 #include <limits>
 #include <ostream>
 #include <sstream>
@@ -475,12 +476,35 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
         std::make_unique<ObstacleSeries<dim>>(comm_, config_.output.directory, grid_->lower(), grid_->upper());
     contact_vtk = std::make_unique<ContactSeries<dim>>(comm_, config_.output.directory);
   }
+  // Every write of results goes through `guarded`: a write that failed on any
+  // rank (a full disk, a file-size limit) stops every rank with an
+  // OutputError, after the writers have left the files of earlier outputs
+  // (and the last checkpoint) as they were.
+  const auto guarded = [&](const char* what, const auto& body) {
+    int failed = 0;
+    std::string message;
+    try {
+      body();
+    } catch (const std::exception& e) {
+      failed = 1;
+      message = e.what();
+    }
+    int any = 0;
+    MPI_Allreduce(&failed, &any, 1, MPI_INT, MPI_MAX, comm_);
+    if (!any) return;
+    if (failed && rank != 0) std::cerr << "talus: output failed on rank " << rank << ": " << message << "\n";
+    throw OutputError(std::string(what) + " at t = " + number_text(time_) + ": " +
+                      (failed ? message : std::string("a file could not be written on another rank")) +
+                      "; the results written before and the last checkpoint are intact");
+  };
   const auto write_output = [&] {
-    const std::size_t index = vtk->entries().size();
-    vtk->write(*particles_, time_);
-    if (obstacle_vtk) obstacle_vtk->write(obstacles_, time_, index);
-    if (contact_vtk) contact_vtk->write(contact_samples(), time_, index);
-    if (grid_vtk) grid_vtk->write(grid_points_, time_, index);
+    guarded("writing the output", [&] {
+      const std::size_t index = vtk->entries().size();
+      vtk->write(*particles_, time_);
+      if (obstacle_vtk) obstacle_vtk->write(obstacles_, time_, index);
+      if (contact_vtk) contact_vtk->write(contact_samples(), time_, index);
+      if (grid_vtk) grid_vtk->write(grid_points_, time_, index);
+    });
     ++summary.outputs;
   };
   const std::string forces_path = config_.output.directory + "/obstacle_forces.csv";
@@ -522,7 +546,7 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
     char name[64];
     std::snprintf(name, sizeof name, "checkpoint_%06ld.h5", summary.steps);
     summary.last_checkpoint = config_.checkpoint.directory + "/" + name;
-    write_checkpoint(summary.last_checkpoint, *particles_, state, comm_);
+    guarded("writing a checkpoint", [&] { write_checkpoint(summary.last_checkpoint, *particles_, state, comm_); });
     if (progress && rank == 0) *progress << "  checkpoint " << summary.last_checkpoint << "\n";
     // A restart from here builds its solver anew (matrix, KSP/PC, LU factors,
     // the inexact-Newton state); so does this run, so that both continue bit
@@ -575,7 +599,7 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
     summary.max_step_newton_iterations = std::max<long>(summary.max_step_newton_iterations, r.newton.iterations);
     summary.max_unbalance = std::max(summary.max_unbalance, r.newton.unbalance);
     control.succeeded(r.newton.iterations);
-    if (forces) forces->append(time_, force_row());
+    if (forces) guarded("appending to obstacle_forces.csv", [&] { forces->append(time_, force_row()); });
     const bool due = time_ >= next_output - eps || time_ >= tc.end - eps;
     if (vtk && due) {
       write_output();

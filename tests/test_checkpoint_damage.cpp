@@ -23,7 +23,7 @@ using namespace talus;
 
 namespace {
 
-const std::string dir = "test_checkpoint_damage";
+const std::string dir = "checkpoint_damage_files";  // not the test binary's name: it runs in the build directory
 
 std::string column(const std::string& grid = "grid: {lower: [0, 0], upper: [1.0, 0.6], cell_size: 0.05}\n",
                    const std::string& materials =

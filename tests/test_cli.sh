@@ -589,3 +589,4 @@ for run, ranks in (("grid", 1), ("grid2", 2)):
           f"momentum x {(mg * vg[:, 0]).sum():.6g} N s/m")
 print(f"cli ok: grid mass = particle mass to {worst_mass:.1e}, grid momentum = particle momentum to {worst_momentum:.1e} (relative)")
 PY
+

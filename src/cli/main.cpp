@@ -1,4 +1,5 @@
 // talus command line: talus run case.yaml [PETSc options] | talus check case.yaml
+#include <csignal>
 #include <petscsys.h>
 
 #include <sys/resource.h>
@@ -108,6 +109,9 @@ int main(int argc, char** argv) {
       argc -= 2;
       break;
     }
+  // A file-size limit (ulimit -f) makes a write fail with EFBIG, reported as
+  // an output error, instead of killing the process mid-write.
+  std::signal(SIGXFSZ, SIG_IGN);
   if (PetscInitialize(&argc, &argv, nullptr, nullptr)) return 1;
   int rank = 0;
   MPI_Comm_rank(PETSC_COMM_WORLD, &rank);
@@ -125,6 +129,9 @@ int main(int argc, char** argv) {
   } catch (const talus::SimulationError& e) {
     if (rank == 0) std::cerr << "talus: simulation failed: " << e.what() << "\n";
     code = 3;
+  } catch (const talus::OutputError& e) {
+    if (rank == 0) std::cerr << "talus: output failed: " << e.what() << "\n";
+    code = 4;
   } catch (const std::exception& e) {
     std::cerr << "talus: internal error on rank " << rank << ": " << e.what() << "\n";
     code = 1;

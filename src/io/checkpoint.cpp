@@ -1,9 +1,11 @@
 #include "talus/io/checkpoint.hpp"
 
 #include <hdf5.h>
+#include <sys/resource.h>
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
@@ -139,7 +141,37 @@ void write_checkpoint(const std::string& path, const Particles<dim>& particles, 
   MPI_Exscan(&local, &offset, 1, MPI_LONG_LONG, MPI_SUM, comm);
   if (rank == 0) offset = 0;
   MPI_Allreduce(&local, &total, 1, MPI_LONG_LONG, MPI_SUM, comm);
+  // A write that fails (a full disk, a file-size limit) leaves no file under
+  // the final name and every earlier checkpoint as it was. HDF5 itself does
+  // not recover from a failed write: the file stays open inside the library,
+  // whose exit handler then crashes after MPI_Finalize. So the room is
+  // checked first, against the file's size (the datasets plus 1 MB for the
+  // metadata and attributes), on the file system and under the file-size
+  // limit; the failure path below is for a disk that fills during the write.
   {
+    std::size_t row = 0;
+    for (const FieldSpec& f : checkpoint_fields<dim>()) row += f.components * element_size(f.kind);
+    long long grid_rows = static_cast<long long>(state.accelerated_points.size()), all_grid_rows = 0;
+    MPI_Allreduce(&grid_rows, &all_grid_rows, 1, MPI_LONG_LONG, MPI_SUM, comm);
+    const double needed = static_cast<double>(total) * row + static_cast<double>(all_grid_rows) * 8 * (dim + 1) + 1048576.0;
+    double room = std::numeric_limits<double>::infinity();
+    if (rank == 0) {
+      std::error_code ec;
+      const auto space = std::filesystem::space(std::filesystem::absolute(path).parent_path(), ec);
+      if (!ec) room = static_cast<double>(space.available);
+      rlimit limit{};
+      if (getrlimit(RLIMIT_FSIZE, &limit) == 0 && limit.rlim_cur != RLIM_INFINITY)
+        room = std::min(room, static_cast<double>(limit.rlim_cur));
+    }
+    MPI_Bcast(&room, 1, MPI_DOUBLE, 0, comm);
+    if (room < needed)
+      throw std::runtime_error("no room for the checkpoint " + path + ": it needs about " +
+                               number_text(std::ceil(needed / 1e6 * 10) / 10) + " MB, the file system or file-size "
+                               "limit allows " + number_text(std::floor(room / 1e6 * 10) / 10) + " MB");
+  }
+  int failed = 0;
+  std::string message;
+  try {
     Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, "file access list");
     check(H5Pset_fapl_mpio(fapl.id, comm, MPI_INFO_NULL), "MPI-IO driver");
     Handle file(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.id), H5Fclose, "creating " + tmp);
@@ -224,9 +256,22 @@ void write_checkpoint(const std::string& path, const Particles<dim>& particles, 
     write_text_attribute(run.id, "talus_version", TALUS_VERSION);
     for (const auto& [section, text] : state.fingerprint)
       write_text_attribute(run.id, ("case_" + section).c_str(), text);
+    // The data reach the disk here at the latest: a full disk fails here, not
+    // silently when the handles close.
+    check(H5Fflush(file.id, H5F_SCOPE_GLOBAL), "flushing " + tmp);
+  } catch (const std::exception& e) {
+    failed = 1;
+    message = e.what();
   }
   // Every rank has closed the file; only then does it get its final name.
-  MPI_Barrier(comm);
+  int any = 0;
+  MPI_Allreduce(&failed, &any, 1, MPI_INT, MPI_MAX, comm);
+  if (any) {
+    std::error_code ignored;
+    if (rank == 0) std::filesystem::remove(tmp, ignored);
+    throw std::runtime_error("cannot write the checkpoint " + path + ": " +
+                             (failed ? message : std::string("failed on another rank")) + " (disk full?)");
+  }
   if (rank == 0) std::filesystem::rename(tmp, path);
   MPI_Barrier(comm);
 }

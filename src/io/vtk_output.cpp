@@ -44,7 +44,12 @@ void write_pvd_file(const std::string& path, const std::vector<std::pair<double,
     for (const auto& [t, f] : entries)
       out << "    <DataSet timestep=\"" << t << "\" group=\"\" part=\"0\" file=\"" << f << "\"/>\n";
     out << "  </Collection>\n</VTKFile>\n";
-    if (!out) throw std::runtime_error("cannot write " + tmp);
+    // The data reach the disk at close: check after it (a full disk fails there).
+    out.close();
+    if (out.fail()) {
+      std::filesystem::remove(tmp);
+      throw std::runtime_error("cannot write " + tmp + " (disk full?)");
+    }
   }
   std::filesystem::rename(tmp, path);
 }
@@ -174,8 +179,20 @@ std::string VtkSeries<dim>::write(const Particles<dim>& particles, double time) 
   writer->SetDataModeToAppended();
   writer->EncodeAppendedDataOff();
   writer->SetCompressorTypeToZLib();
-  if (writer->Write() != 1) throw std::runtime_error("VTK could not write " + staged);
-  MPI_Barrier(comm_);
+  // Every rank learns whether every piece was written before any file moves.
+  // VTK's parallel writer can return success with an empty summary file on a
+  // full disk: its error code, and a non-empty file, are checked as well.
+  int ok = writer->Write() == 1 && writer->GetErrorCode() == 0, all_ok = 0;
+  std::error_code size_error;
+  if (rank == 0 && ok) ok = std::filesystem::file_size(staged, size_error) > 0 && !size_error;
+  const std::string own_piece = staging + "/" + stem.str() + "_" + std::to_string(rank) + ".vtu";
+  if (ok && std::filesystem::exists(own_piece)) ok = std::filesystem::file_size(own_piece, size_error) > 0 && !size_error;
+  MPI_Allreduce(&ok, &all_ok, 1, MPI_INT, MPI_MIN, comm_);
+  if (!all_ok) {
+    MPI_Barrier(comm_);
+    if (rank == 0) std::filesystem::remove_all(staging);
+    throw std::runtime_error("VTK could not write " + staged + (ok ? " (on another rank)" : " (disk full?)"));
+  }
   // VTK writes no piece for a rank without particles (nor lists it in the .pvtu).
   const std::string piece = stem.str() + "_" + std::to_string(rank) + ".vtu";
   if (std::filesystem::exists(staging + "/" + piece))
@@ -290,7 +307,12 @@ std::string ObstacleSeries<dim>::write(const std::vector<Obstacle<dim>>& obstacl
   writer->SetDataModeToAppended();
   writer->EncodeAppendedDataOff();
   writer->SetCompressorTypeToZLib();
-  if (writer->Write() != 1) throw std::runtime_error("VTK could not write " + tmp);
+  std::error_code size_error;
+  if (writer->Write() != 1 || writer->GetErrorCode() != 0 || !(std::filesystem::file_size(tmp, size_error) > 0) ||
+      size_error) {
+    std::filesystem::remove(tmp, size_error);
+    throw std::runtime_error("VTK could not write " + tmp + " (disk full?)");
+  }
   std::filesystem::rename(tmp, file);
   entries_.emplace_back(time, stem + ".vtp");
   write_pvd_file(directory_ + "/obstacles.pvd", entries_);
@@ -361,9 +383,16 @@ std::string PointCloudSeries::write(const PointCloud& cloud, double time, std::s
   writer->EncodeAppendedDataOff();
   writer->SetCompressorTypeToZLib();
   writer->SetHeaderTypeToUInt32();
-  int ok = writer->Write() == 1, all_ok = 0;
+  int ok = writer->Write() == 1 && writer->GetErrorCode() == 0, all_ok = 0;
+  std::error_code size_error;
+  if (ok && std::filesystem::exists(staging + "/" + piece))
+    ok = std::filesystem::file_size(staging + "/" + piece, size_error) > 0 && !size_error;
   MPI_Allreduce(&ok, &all_ok, 1, MPI_INT, MPI_MIN, comm_);
-  if (!all_ok) throw std::runtime_error("VTK could not write the " + name_ + " pieces in " + staging);
+  if (!all_ok) {
+    MPI_Barrier(comm_);
+    if (rank == 0) std::filesystem::remove_all(staging);
+    throw std::runtime_error("VTK could not write the " + name_ + " pieces in " + staging + " (disk full?)");
+  }
   std::filesystem::rename(staging + "/" + piece, directory_ + "/" + piece);
   MPI_Barrier(comm_);
   if (rank == 0) {
@@ -393,7 +422,11 @@ std::string PointCloudSeries::write(const PointCloud& cloud, double time, std::s
           << "    </PPoints>\n";
       for (int r = 0; r < size; ++r) out << "    <Piece Source=\"" << stem << "_" << r << ".vtu\"/>\n";
       out << "  </PUnstructuredGrid>\n</VTKFile>\n";
-      if (!out) throw std::runtime_error("cannot write " + staged);
+      out.close();
+      if (out.fail()) {
+        std::filesystem::remove_all(staging);
+        throw std::runtime_error("cannot write " + staged + " (disk full?)");
+      }
     }
     std::filesystem::rename(staged, file);
     std::filesystem::remove(staging);
@@ -501,7 +534,11 @@ ObstacleForceTable::ObstacleForceTable(MPI_Comm comm, const std::string& path, c
     std::ofstream out(tmp);
     out << header << "\n";
     for (const auto& row : kept) out << row << "\n";
-    if (!out) throw std::runtime_error("cannot write " + tmp);
+    out.close();
+    if (out.fail()) {
+      std::filesystem::remove(tmp);
+      throw std::runtime_error("cannot write " + tmp + " (disk full?)");
+    }
   }
   std::filesystem::rename(tmp, path_);
   file_ = std::fopen(path_.c_str(), "a");
@@ -518,7 +555,7 @@ void ObstacleForceTable::append(double time, const std::vector<double>& values) 
   for (double v : values) row += "," + exact_text(v);
   row += "\n";
   if (std::fwrite(row.data(), 1, row.size(), file_) != row.size() || std::fflush(file_) != 0)
-    throw std::runtime_error("cannot append to " + path_);
+    throw std::runtime_error("cannot append to " + path_ + " (disk full?)");
 }
 
 }  // namespace talus

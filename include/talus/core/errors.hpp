@@ -25,6 +25,14 @@ class SimulationError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// A result file (VTK, CSV, checkpoint) that could not be written: a full
+// disk, a file-size limit, a lost permission. Exit code 4; the files written
+// before, and the last checkpoint, are left intact.
+class OutputError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
 class PetscFailure : public std::runtime_error {
  public:
   PetscFailure(PetscErrorCode code, const char* call, const char* file, int line);

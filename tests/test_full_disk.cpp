@@ -1,0 +1,130 @@
+// A full disk (issue 14, item 5; docs/output.md#a-full-disk): a write that
+// fails stops the run with an OutputError (exit code 4 in the command line),
+// the outputs written before stay listed and readable, nothing torn or
+// temporary is left under the output directory, and a checkpoint that cannot
+// be written leaves the previous one as it was and restartable.
+//
+// The full disk is a file-size limit (RLIMIT_FSIZE, SIGXFSZ ignored as talus
+// does), set inside this process after MPI started: it needs no privileges,
+// and MPI's own start-up files are not subject to it.
+#include <sys/resource.h>
+#include <vtkNew.h>
+#include <vtkUnstructuredGrid.h>
+#include <vtkXMLPUnstructuredGridReader.h>
+
+#include <catch2/catch.hpp>
+#include <csignal>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <regex>
+
+#include "talus/simulation.hpp"
+#include "test_support.hpp"
+
+using namespace talus;
+namespace fs = std::filesystem;
+
+namespace {
+
+// No file may grow beyond `bytes` while this lives.
+class FileSizeLimit {
+ public:
+  explicit FileSizeLimit(rlim_t bytes) {
+    REQUIRE(getrlimit(RLIMIT_FSIZE, &saved_) == 0);
+    rlimit limited = saved_;
+    limited.rlim_cur = bytes;
+    previous_ = std::signal(SIGXFSZ, SIG_IGN);
+    REQUIRE(setrlimit(RLIMIT_FSIZE, &limited) == 0);
+  }
+  ~FileSizeLimit() {
+    setrlimit(RLIMIT_FSIZE, &saved_);
+    std::signal(SIGXFSZ, previous_);
+  }
+  FileSizeLimit(const FileSizeLimit&) = delete;
+  FileSizeLimit& operator=(const FileSizeLimit&) = delete;
+
+ private:
+  rlimit saved_{};
+  void (*previous_)(int) = nullptr;
+};
+
+// The psi = 0 column of inputs/column_collapse_psi0.yaml (800 particles).
+std::string column(const std::string& directory, double end, bool output) {
+  return "grid: {lower: [0, 0], upper: [3.0, 1.2], cell_size: 0.05}\n"
+         "time: {end: " + std::to_string(end) + ", step: 0.0025}\n"
+         "output: {directory: " + directory + ", interval: 0.1, enabled: " + (output ? "true" : "false") + "}\n"
+         "checkpoint: {enabled: true, directory: " + directory + "}\n"
+         "gravity: [0, -9.81]\n"
+         "materials: [{name: sand, model: drucker_prager, density: 2000, youngs_modulus: 1.0e6, poisson_ratio: 0.3,"
+         " friction_angle: 30, dilatancy_angle: 0, cohesion: 0}]\n"
+         "bodies: [{name: column, material: sand, box: {lower: [0, 0], upper: [0.5, 1.0]}}]\n"
+         "boundaries: {y_min: fixed}\n";
+}
+
+std::vector<std::string> leftovers(const std::string& directory) {
+  std::vector<std::string> found;
+  for (const auto& e : fs::recursive_directory_iterator(directory)) {
+    const std::string name = e.path().filename().string();
+    if (name.find(".tmp") != std::string::npos || name.rfind(".staging", 0) == 0) found.push_back(name);
+  }
+  return found;
+}
+
+std::string contents(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+}  // namespace
+
+TEST_CASE("a full disk at an output stops the run and keeps the earlier outputs", "[output]") {
+  const std::string dir = "full_disk_output";
+  fs::remove_all(dir);
+  Simulation<2> sim(testing::case_from_yaml(column(dir, 0.2, true)), PETSC_COMM_SELF);
+  {
+    // The t = 0 piece is 10 kB, the t = 0.1 one 93 kB (zlib-compressed).
+    const FileSizeLimit limit(40 * 1024);
+    CHECK_THROWS_AS(sim.run(nullptr), OutputError);
+  }
+  CHECK(leftovers(dir).empty());
+  CHECK_FALSE(fs::exists(dir + "/particles_000001.pvtu"));
+  const std::string pvd = contents(dir + "/particles.pvd");
+  const std::regex entry("file=\"([^\"]+)\"");
+  std::vector<std::string> files;
+  for (auto it = std::sregex_iterator(pvd.begin(), pvd.end(), entry); it != std::sregex_iterator(); ++it)
+    files.push_back((*it)[1]);
+  REQUIRE(files == std::vector<std::string>{"particles_000000.pvtu"});
+  vtkNew<vtkXMLPUnstructuredGridReader> reader;
+  reader->SetFileName((dir + "/" + files[0]).c_str());
+  reader->Update();
+  CHECK(reader->GetOutput()->GetNumberOfPoints() == 800);
+}
+
+TEST_CASE("a checkpoint that does not fit leaves the previous one intact and restartable", "[output][checkpoint]") {
+  const std::string dir = "full_disk_checkpoint";
+  fs::remove_all(dir);
+  std::string good;
+  {
+    Simulation<2> first(testing::case_from_yaml(column(dir, 0.05, false)), PETSC_COMM_SELF);
+    good = first.run(nullptr).last_checkpoint;
+  }
+  REQUIRE(fs::exists(good));
+  const std::string before = contents(good);
+  {
+    // A checkpoint of the 800 particles is about 190 kB.
+    Simulation<2> second(testing::case_from_yaml(column(dir, 0.1, false)), PETSC_COMM_SELF);
+    second.restart(good);
+    const FileSizeLimit limit(100 * 1024);
+    CHECK_THROWS_WITH(second.run(nullptr), Catch::Contains("writing a checkpoint at t = 0.1"));
+  }
+  CHECK(leftovers(dir).empty());
+  std::vector<std::string> checkpoints;
+  for (const auto& e : fs::directory_iterator(dir)) checkpoints.push_back(e.path().string());
+  CHECK(checkpoints == std::vector<std::string>{good});
+  CHECK(contents(good) == before);
+  Simulation<2> third(testing::case_from_yaml(column(dir, 0.1, false)), PETSC_COMM_SELF);
+  third.restart(good);
+  CHECK_NOTHROW(third.run(nullptr));
+  CHECK(third.time() == Approx(0.1));
+}
