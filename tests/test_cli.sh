@@ -96,6 +96,19 @@ for bad in "refactor_iterations 3x" "stagnation_iterations -1" "direct_fallback_
     { echo "FAIL: message for -talus_$1 $2"; cat bad_option.log; exit 1; }
   [ ! -e "$work/bad_option_out" ] || { echo "FAIL: a bad option wrote output"; exit 1; }
 done
+# Arguments that are neither talus's nor PETSc options: exit 2, named, no output.
+for bad in "--bogus|unknown option --bogus" "-help|-help: talus --help prints the usage" \
+           "other.yaml|unexpected argument 'other.yaml'" "-talus_snes_monitor a b|unexpected argument 'b'"; do
+  args=${bad%%|*}
+  message=${bad#*|}
+  set +e
+  "$talus" run bad_option.yaml $args > bad_option.log 2>&1
+  code=$?
+  set -e
+  [ "$code" -eq 2 ] || { echo "FAIL: exit code $code for '$args' (want 2)"; cat bad_option.log; exit 1; }
+  grep -qF -- "talus: error: command line: $message" bad_option.log || { echo "FAIL: message for '$args'"; cat bad_option.log; exit 1; }
+  [ ! -e "$work/bad_option_out" ] || { echo "FAIL: a bad argument wrote output"; exit 1; }
+done
 set +e
 "$talus" run bad_option.yaml -talus_newton_predictor lats > bad_option.log 2>&1
 code=$?

@@ -109,6 +109,24 @@ int main(int argc, char** argv) {
       argc -= 2;
       break;
     }
+  // What remains must be PETSc options: -name [value] pairs. An unknown
+  // talus flag, PETSc's -help (which would print its option list and then
+  // run the case), or a stray word is a command-line error, not ignored.
+  for (int i = 3; i < argc; ++i) {
+    const std::string a = argv[i];
+    const bool value_of_option = i > 3 && argv[i - 1][0] == '-' && std::strncmp(argv[i - 1], "--", 2) != 0;
+    std::string problem;
+    if (a.rfind("--", 0) == 0)
+      problem = "unknown option " + a + " (talus's own: --restart FILE; PETSc options take one dash, e.g. -talus_snes_monitor)";
+    else if (a == "-help" || a == "-h")
+      problem = a + ": talus --help prints the usage; docs/solver.md lists the solver options";
+    else if (a.empty() || (a[0] != '-' && !value_of_option))
+      problem = "unexpected argument '" + a + "' (one case file per run)";
+    if (!problem.empty()) {
+      std::cerr << "talus: error: command line: " << problem << "\n";
+      return 2;
+    }
+  }
   // A file-size limit (ulimit -f) makes a write fail with EFBIG, reported as
   // an output error, instead of killing the process mid-write.
   std::signal(SIGXFSZ, SIG_IGN);

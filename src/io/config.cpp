@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <cctype>
 #include <charconv>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
@@ -12,6 +14,8 @@
 #include <map>
 #include <sstream>
 #include <system_error>
+
+#include <unistd.h>
 
 #include "talus/io/body_config.hpp"
 #include "talus/io/terrain_file.hpp"
@@ -247,6 +251,28 @@ std::string canonical(const YAML::Node& node, const std::filesystem::path& base,
   }
 }
 
+// Why the run could not write into `directory` ("" if it can): checked
+// before anything runs, without creating anything (talus check has no side
+// effects); the run creates the directory later.
+std::string directory_problem(const std::string& directory) {
+  if (directory.empty()) return "is empty";
+  if (directory.size() > 4000) return "is longer than 4000 characters";
+  namespace fs = std::filesystem;
+  const fs::path path(directory);
+  for (const auto& part : path)
+    if (part.string().size() > 255) return "has a name longer than 255 characters";
+  std::error_code ec;
+  fs::path existing = path;
+  while (!existing.empty() && !fs::exists(existing, ec)) existing = existing.parent_path();
+  if (existing.empty()) existing = ".";
+  if (!fs::is_directory(existing, ec))
+    return existing == path ? "is not a directory" : "cannot be created: " + existing.string() + " is not a directory";
+  if (access(existing.c_str(), W_OK | X_OK) != 0)
+    return (existing == path ? std::string("is not writable: ") : "cannot be created in " + existing.string() + ": ") +
+           std::strerror(errno);
+  return "";
+}
+
 CaseFingerprint case_fingerprint(const YAML::Node& doc, const std::string& case_file) {
   const std::filesystem::path base = std::filesystem::path(case_file).parent_path();
   CaseFingerprint f;
@@ -324,7 +350,15 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
     }
     c.output.enabled = o.boolean("enabled", true);
     c.output.grid = o.boolean("grid", false);
+    if (c.output.enabled) {
+      const std::string problem = directory_problem(c.output.directory);
+      if (!problem.empty()) o.fail_value("directory", c.output.directory, problem);
+    }
     o.finish();
+  } else {
+    const std::string problem = directory_problem(c.output.directory);
+    if (!problem.empty())
+      throw InputError(c.source_file + ": output.directory = output (the default, no output section): " + problem);
   }
   c.checkpoint.directory = c.output.directory;
   c.checkpoint.enabled = c.output.enabled;
@@ -335,6 +369,10 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
     if (c.checkpoint.interval < 0)
       k.fail_value("interval", "must be >= 0 (steps; 0: only at the end)");
     c.checkpoint.directory = k.text("directory", c.output.directory);
+    if (c.checkpoint.enabled && k.has("directory")) {
+      const std::string problem = directory_problem(c.checkpoint.directory);
+      if (!problem.empty()) k.fail_value("directory", c.checkpoint.directory, problem);
+    }
     k.finish();
   }
   c.gravity = root.has("gravity") ? root.reals("gravity", c.dim) : std::vector<double>(c.dim, 0.0);
