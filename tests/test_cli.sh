@@ -96,6 +96,14 @@ for bad in "refactor_iterations 3x" "stagnation_iterations -1" "direct_fallback_
     { echo "FAIL: message for -talus_$1 $2"; cat bad_option.log; exit 1; }
   [ ! -e "$work/bad_option_out" ] || { echo "FAIL: a bad option wrote output"; exit 1; }
 done
+# A case "file" that is a device would be read without end.
+set +e
+"$talus" check /dev/zero > zero.log 2>&1
+code=$?
+set -e
+[ "$code" -eq 2 ] && grep -q "talus: error: /dev/zero: is not a regular file, not a case file" zero.log ||
+  { echo "FAIL: /dev/zero as a case file: exit $code"; cat zero.log; exit 1; }
+
 # Arguments that are neither talus's nor PETSc options: exit 2, named, no output.
 for bad in "--bogus|unknown option --bogus" "-help|-help: talus --help prints the usage" \
            "other.yaml|unexpected argument 'other.yaml'" "-talus_snes_monitor a b|unexpected argument 'b'"; do

@@ -486,6 +486,11 @@ CaseConfig parse_case(const std::string& yaml_text, const std::string& name) {
 CaseConfig load_case(const std::string& file) {
   std::error_code ec;
   if (std::filesystem::is_directory(file, ec)) throw InputError(file + ": is a directory, not a case file");
+  // /dev/zero or a FIFO would be read without end.
+  if (std::filesystem::exists(file, ec) && !std::filesystem::is_regular_file(file, ec))
+    throw InputError(file + ": is not a regular file, not a case file");
+  if (std::filesystem::exists(file, ec) && std::filesystem::file_size(file, ec) > max_case_file_bytes)
+    throw InputError(file + ": is larger than 64 MiB, not a case file");
   std::ifstream in(file);
   if (!in) throw InputError(file + ": cannot open the case file");
   std::stringstream buffer;

@@ -293,6 +293,12 @@ std::ifstream open_case_file(const YamlSection& section, const std::string& key,
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec))
     section.fail_value(key, name, "is a directory, not a " + kind + " (" + path.string() + ")");
+  // /dev/zero, a FIFO or a terminal would be read without end: only regular
+  // files, and of a size that a case can use (docs/case_file.md).
+  if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec))
+    section.fail_value(key, name, "is not a regular file (" + path.string() + ")");
+  if (std::filesystem::exists(path, ec) && std::filesystem::file_size(path, ec) > max_data_file_bytes)
+    section.fail_value(key, name, "is larger than 2 GiB, the limit for a " + kind + " (" + path.string() + ")");
   std::ifstream in(path, std::ios::binary);
   if (!in)
     section.fail_value(key, name,

@@ -4,6 +4,7 @@
 // Every read records the key; finish() then rejects keys nobody read, with a
 // "did you mean" suggestion. Every error names the file, the line, the full
 // key path and the offending value (docs/case_file.md).
+#include <cstdint>
 #include <yaml-cpp/yaml.h>
 
 #include <fstream>
@@ -18,6 +19,10 @@ namespace talus {
 // A computed number in a message: the shortest text that reads back to the
 // same double ("0.5", "1e-12", "2"), not std::to_string's six decimals.
 std::string number_text(double value);
+
+// The largest data file (terrain, particle, STL) and case file talus reads.
+inline constexpr std::uintmax_t max_data_file_bytes = std::uintmax_t(2) << 30;
+inline constexpr std::uintmax_t max_case_file_bytes = std::uintmax_t(64) << 20;
 
 
 class YamlSection {
