@@ -23,7 +23,10 @@ using namespace talus;
 
 namespace {
 
-const std::string dir = "checkpoint_damage_files";  // not the test binary's name: it runs in the build directory
+// Each test case works in its own directory: ctest runs them in parallel
+// processes (and not under the test binary's own name: it runs in the build
+// directory).
+std::string dir = "checkpoint_damage_files";
 
 std::string column(const std::string& grid = "grid: {lower: [0, 0], upper: [1.0, 0.6], cell_size: 0.05}\n",
                    const std::string& materials =
@@ -50,6 +53,7 @@ const std::string& written_checkpoint() {
 
 // A copy of the checkpoint, changed by `damage` (given the open file).
 std::string damaged(const std::string& name, const std::function<void(hid_t)>& damage) {
+  std::filesystem::create_directories(dir);
   const std::string path = dir + "/" + name + ".h5";
   std::filesystem::copy_file(written_checkpoint(), path, std::filesystem::copy_options::overwrite_existing);
   const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
@@ -93,6 +97,7 @@ void restart_fails(const std::string& path, const std::string& message, const st
 }  // namespace
 
 TEST_CASE("a damaged checkpoint is refused with what is wrong with it", "[checkpoint]") {
+  dir = "checkpoint_damage_files";
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const std::string invalid = "not a valid talus checkpoint: ";
   SECTION("a material index out of range (was a heap overflow)") {
@@ -165,6 +170,7 @@ TEST_CASE("a damaged checkpoint is refused with what is wrong with it", "[checkp
 }
 
 TEST_CASE("a restart with another case is refused, naming what differs", "[checkpoint]") {
+  dir = "checkpoint_damage_changed_case";
   const std::string& path = written_checkpoint();
   const std::string refused = "the checkpoint belongs to another case: ";
   SECTION("the grid extended by 1 m") {
