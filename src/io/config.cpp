@@ -10,11 +10,13 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <limits>
 #include <map>
 #include <sstream>
 #include <system_error>
 
+#include <petscsys.h>
 #include <unistd.h>
 
 #include "talus/io/body_config.hpp"
@@ -197,6 +199,50 @@ ObstacleConfig parse_obstacle(YamlSection& o, const CaseConfig& c) {
   return ob;
 }
 
+// Basis functions (grid points) of the grid: cells + 2 per axis for
+// quadratic B-splines, cells + 1 for linear ones.
+double grid_points(const CaseConfig& c) {
+  double n = 1;
+  for (int a = 0; a < c.dim; ++a)
+    n *= std::round((c.grid.upper[a] - c.grid.lower[a]) / c.grid.cell_size) +
+         (c.grid.shape == ShapeKind::linear ? 1 : 2);
+  return n;
+}
+
+// An upper bound of the particles the bodies seed: each body's bounding box
+// filled at its particle spacing (exact for boxes), or its file's count.
+double estimated_particles(const CaseConfig& c) {
+  double total = 0;
+  for (const BodyConfig& b : c.bodies) {
+    if (b.shape == BodyShape::particle_file) {
+      total += static_cast<double>(b.file_volumes.size());
+      continue;
+    }
+    const double spacing = c.grid.cell_size / b.particles_per_cell;
+    double n = 1;
+    for (int a = 0; a < c.dim && a < static_cast<int>(b.box_upper.size()); ++a)
+      n *= std::ceil((b.box_upper[a] - b.box_lower[a]) / spacing);
+    total += n;
+  }
+  return total;
+}
+
+// Measured peak memory (2026-11-25, one rank): the process itself about
+// 60 MB; per grid point 250 B (2D) and 320 B (3D): the ghosted grid arrays
+// are dense over the whole box; per particle 1.7 kB (2D) and 6.3 kB (3D):
+// the swarm fields, the stencils, and the Jacobian and its incomplete
+// factors (whose rows are the active points near the particles). With 20 %
+// to spare.
+double estimated_memory_gb(int dim, double points, double particles) {
+  const double bytes = 60e6 + 1.2 * (points * (dim == 2 ? 250.0 : 320.0) + particles * (dim == 2 ? 1700.0 : 6300.0));
+  return bytes / 1e9;
+}
+
+double physical_memory_gb() {
+  const long pages = sysconf(_SC_PHYS_PAGES), size = sysconf(_SC_PAGE_SIZE);
+  return pages > 0 && size > 0 ? static_cast<double>(pages) * static_cast<double>(size) / 1e9 : 1e6;
+}
+
 // FNV-1a (64 bit) of a data file's bytes: a data file that changes under a
 // checkpoint changes its case fingerprint.
 std::string file_hash(const std::filesystem::path& path) {
@@ -276,8 +322,12 @@ std::string directory_problem(const std::string& directory) {
 CaseFingerprint case_fingerprint(const YAML::Node& doc, const std::string& case_file) {
   const std::filesystem::path base = std::filesystem::path(case_file).parent_path();
   CaseFingerprint f;
-  for (const char* section : {"grid", "gravity", "materials", "bodies", "boundaries", "obstacles", "contact", "transfer"})
-    f.emplace_back(section, doc[section] ? canonical(doc[section], base, section) : "default");
+  for (const char* section : {"grid", "gravity", "materials", "bodies", "boundaries", "obstacles", "contact", "transfer"}) {
+    YAML::Node node = doc[section] ? YAML::Clone(doc[section]) : YAML::Node();
+    // A resource limit, not part of the physics: it may change on restart.
+    if (node.IsMap() && std::string(section) == "grid") node.remove("memory_limit_gb");
+    f.emplace_back(section, node ? canonical(node, base, section) : "default");
+  }
   return f;
 }
 
@@ -308,6 +358,17 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
     c.grid.shape = g.choice("shape_function", {"quadratic_bspline", "linear"}, "quadratic_bspline") == "linear"
                        ? ShapeKind::linear
                        : ShapeKind::quadratic_bspline;
+    // PETSc indexes its vectors with PetscInt: the grid's (m, m v) vector,
+    // dim + 1 values per point, must have fewer than 2^31 entries with the
+    // Debian PETSc's 32-bit indices.
+    const double entries = grid_points(c) * (c.dim + 1);
+    if (entries > static_cast<double>(std::numeric_limits<PetscInt>::max()))
+      g.fail_value("cell_size", "gives " + number_text(grid_points(c)) + " grid points, more than PETSc's " +
+                                    std::to_string(8 * sizeof(PetscInt)) + "-bit indices can number (" +
+                                    number_text(std::floor(std::numeric_limits<PetscInt>::max() / (c.dim + 1.0))) +
+                                    " in " + std::to_string(c.dim) + "D)");
+    c.grid.memory_limit_gb = g.real("memory_limit_gb", physical_memory_gb());
+    if (!(c.grid.memory_limit_gb > 0)) g.fail_value("memory_limit_gb", "must be > 0");
     g.finish();
   }
   {
@@ -450,6 +511,23 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
     if (!(c.parallel.imbalance_limit >= 1.0 && c.parallel.imbalance_limit <= 1e6))
       q.fail_value("imbalance_limit", "must be in [1, 1e6] (largest over mean particles per rank)");
     q.finish();
+  }
+  {
+    // The memory a run needs, estimated before anything is allocated
+    // (docs/case_file.md#grid): a case that cannot fit stops here instead of
+    // growing past the machine's memory in its setup.
+    const double particles = estimated_particles(c);
+    const double gb = estimated_memory_gb(c.dim, grid_points(c), particles);
+    if (gb > c.grid.memory_limit_gb) {
+      YamlSection g = root.section("grid");
+      std::ostringstream m;
+      m << "the case needs about " << std::setprecision(3) << gb << " GB of memory (" << number_text(grid_points(c))
+        << " grid points, about " << number_text(particles) << " particles), more than grid.memory_limit_gb = "
+        << c.grid.memory_limit_gb << (g.has("memory_limit_gb") ? "" : " (this machine's memory)")
+        << "; use a coarser grid or a smaller box, or raise grid.memory_limit_gb for a machine (all ranks together) "
+           "with more";
+      g.fail_value("cell_size", m.str());
+    }
   }
   root.finish();
   c.fingerprint = case_fingerprint(doc, c.source_file);
