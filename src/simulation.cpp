@@ -40,6 +40,23 @@ void apply_case_petsc_options(const CaseConfig& config) {
   }
 }
 
+std::string unused_solver_options() {
+  PetscInt count = 0;
+  char** names = nullptr;
+  char** values = nullptr;
+  TALUS_PETSC(PetscOptionsLeftGet(nullptr, &count, &names, &values));
+  std::string list;
+  for (PetscInt k = 0; k < count; ++k) {
+    const std::string name = names[k];
+    // Read only when they are needed: the LU retry after a failed linear
+    // solve, the inner solver of a nonlinear preconditioner.
+    if (name.rfind("talus_", 0) != 0 || name.rfind("talus_fallback_", 0) == 0) continue;
+    list += (list.empty() ? "-" : ", -") + name;
+  }
+  TALUS_PETSC(PetscOptionsLeftRestore(nullptr, &count, &names, &values));
+  return list;
+}
+
 template <int dim>
 Simulation<dim>::Simulation(const CaseConfig& config, MPI_Comm comm) : config_(config), comm_(comm) {
   if (config.dim != dim) throw InputError(config.source_file + ": the case is " + std::to_string(config.dim) + "D");
@@ -460,6 +477,7 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
   const double eps = 1e-12 * tc.end;
   double next_output = config_.output.interval > 0 ? config_.output.interval : tc.end;
   StepController control(tc.step);
+  bool options_checked = false;
   std::unique_ptr<VtkSeries<dim>> vtk;
   if (config_.output.enabled) vtk = std::make_unique<VtkSeries<dim>>(comm_, config_.output.directory);
   // With obstacles: their geometry and the contact points at every output
@@ -595,6 +613,17 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
       continue;
     }
     ++summary.steps;
+    if (!options_checked) {
+      // By now the solver has read every option it will read: one that it
+      // did not is misspelled or meant for another configuration.
+      options_checked = true;
+      const std::string unused = unused_solver_options();
+      if (!unused.empty() && rank == 0) {
+        std::cerr << "talus: warning: PETSc options never read by the solver (misspelled, or for another solver "
+                     "configuration): " << unused << "\n";
+        if (progress) *progress << "  warning: PETSc options never read by the solver: " << unused << "\n";
+      }
+    }
     summary.contact_points += r.contact_points;
     summary.max_step_newton_iterations = std::max<long>(summary.max_step_newton_iterations, r.newton.iterations);
     summary.max_unbalance = std::max(summary.max_unbalance, r.newton.unbalance);

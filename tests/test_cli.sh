@@ -104,6 +104,29 @@ set -e
 [ "$code" -eq 2 ] && grep -q "talus: error: /dev/zero: is not a regular file, not a case file" zero.log ||
   { echo "FAIL: /dev/zero as a case file: exit $code"; cat zero.log; exit 1; }
 
+# PETSc options with values this PETSc cannot use: exit 2 before anything is written.
+for bad in "-talus_ksp_type nonsense|PETSc option -talus_ksp_type nonsense: not a Krylov method" \
+           "-talus_snes_rtol nan|PETSc option -talus_snes_rtol nan: expected a finite number >= 0" \
+           "-talus_pc_type nothing|PETSc option -talus_pc_type nothing: not a preconditioner"; do
+  args=${bad%%|*}
+  message=${bad#*|}
+  set +e
+  "$talus" run bad_option.yaml $args > bad_option.log 2>&1
+  code=$?
+  set -e
+  [ "$code" -eq 2 ] || { echo "FAIL: exit code $code for '$args' (want 2)"; cat bad_option.log; exit 1; }
+  grep -qF -- "talus: error: $message" bad_option.log || { echo "FAIL: message for '$args'"; cat bad_option.log; exit 1; }
+  grep -q "PETSC ERROR" bad_option.log && { echo "FAIL: a PETSc trace for '$args'"; cat bad_option.log; exit 1; }
+  [ ! -e "$work/bad_option_out" ] || { echo "FAIL: a bad PETSc option wrote output"; exit 1; }
+done
+
+# A misspelled solver option is named after the first step (PETSc reads
+# options lazily), and a correct one is not.
+sed -e "s#directory: .*#directory: $work/unused_out#" -e "s#  end: .*#  end: 0.01#" "$repo/inputs/elastic_column.yaml" > unused.yaml
+"$talus" run unused.yaml -talus_snes_monitr -talus_snes_converged_reason > unused.log 2> unused.err
+grep -q "talus: warning: PETSc options never read by the solver (misspelled, or for another solver configuration): -talus_snes_monitr$" unused.err ||
+  { echo "FAIL: no warning for -talus_snes_monitr"; cat unused.err; exit 1; }
+
 # Arguments that are neither talus's nor PETSc options: exit 2, named, no output.
 for bad in "--bogus|unknown option --bogus" "-help|-help: talus --help prints the usage" \
            "other.yaml|unexpected argument 'other.yaml'" "-talus_snes_monitor a b|unexpected argument 'b'"; do

@@ -147,4 +147,8 @@ class Simulation {
 // leaving any option already given on the command line untouched.
 void apply_case_petsc_options(const CaseConfig& config);
 
+// The -talus_ PETSc options that nothing has read so far, as "-a, -b" (""
+// if none): after the first step, a misspelled or misplaced option.
+std::string unused_solver_options();
+
 }  // namespace talus

@@ -1,9 +1,8 @@
 // talus command line: talus run case.yaml [PETSc options] | talus check case.yaml
-#include <csignal>
 #include <petscsys.h>
-
 #include <sys/resource.h>
 
+#include <csignal>
 #include <cstring>
 #include <iomanip>
 #include <iostream>
@@ -137,6 +136,8 @@ int main(int argc, char** argv) {
   try {
     const talus::CaseConfig config = talus::load_case(argv[2]);
     if (command == "check") {
+      talus::apply_case_petsc_options(config);
+      talus::check_petsc_options(PETSC_COMM_WORLD);
       if (rank == 0) std::cout << "talus: " << argv[2] << " is a valid " << config.dim << "D case\n";
     } else {
       code = config.dim == 2 ? run_case<2>(config, restart, rank) : run_case<3>(config, restart, rank);

@@ -22,6 +22,7 @@
 #include "talus/io/body_config.hpp"
 #include "talus/io/terrain_file.hpp"
 #include "talus/io/yaml_section.hpp"
+#include "talus/solver/newton.hpp"
 
 namespace talus {
 
@@ -500,6 +501,12 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
     for (auto& [k, v] : s.free_map("petsc_options")) {
       std::string key = k;
       if (!key.empty() && key[0] == '-') key.erase(0, 1);
+      PetscBool petsc_ready = PETSC_FALSE;
+      PetscInitialized(&petsc_ready);
+      if (petsc_ready) {
+        const std::string why = petsc_option_problem("talus_" + key, v, PETSC_COMM_SELF);
+        if (!why.empty()) s.fail_value("petsc_options", key + ": " + v, why);
+      }
       c.solver.petsc_options.emplace_back(key, v);
     }
     s.finish();
