@@ -507,3 +507,15 @@ TEST_CASE("step and output counts are bounded, and the bounds can be raised expl
   CHECK(parse_case(valid + "output: {interval: 1.0e-6, max_outputs: 1000000}\n", "c.yaml").output.max_outputs ==
         1000000);
 }
+
+TEST_CASE("CR line ends read as line ends; NUL characters are refused", "[config]") {
+  // Old Mac line ends: the first comment swallowed the whole file ("it is empty").
+  std::string cr = "# a comment\n" + valid;
+  for (char& ch : cr)
+    if (ch == '\n') ch = '\r';
+  CHECK(parse_case(cr, "c.yaml").materials.size() == 1);
+  // The YAML escape \0 in a double-quoted text gives a NUL character (a raw
+  // NUL byte is already a YAML syntax error).
+  const std::string nul = replace(valid, "name: block", "name: \"blo\\0ck\"");
+  CHECK_THROWS_WITH(parse_case(nul, "c.yaml"), Catch::Contains("c.yaml:14: a value holds a NUL character"));
+}

@@ -543,9 +543,45 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
 
 }  // namespace
 
-CaseConfig parse_case(const std::string& yaml_text, const std::string& name) {
+// What yaml-cpp accepts but a case file must not hold: merge keys `<<`
+// (yaml-cpp keeps them as an ordinary key named "<<", so the merged keys
+// would silently be missing) and NUL characters (which end the text in every
+// message and file name).
+void check_yaml_node(const YAML::Node& node, const std::string& name) {
+  const auto at = [&](const YAML::Node& n) { return name + ":" + std::to_string(n.Mark().line + 1) + ": "; };
+  if (node.IsScalar() && node.Scalar().find('\0') != std::string::npos)
+    throw InputError(at(node) + "a value holds a NUL character");
+  if (node.IsSequence())
+    for (const auto& item : node) check_yaml_node(item, name);
+  if (node.IsMap())
+    for (auto it = node.begin(); it != node.end(); ++it) {
+      if (it->first.IsScalar() && it->first.Scalar() == "<<")
+        throw InputError(at(it->first) + "YAML merge keys (<<) are not supported: write the keys out");
+      if (it->first.IsScalar() && it->first.Scalar().find('\0') != std::string::npos)
+        throw InputError(at(it->first) + "a key holds a NUL character");
+      check_yaml_node(it->second, name);
+    }
+}
+
+CaseConfig parse_case(const std::string& raw_text, const std::string& name) {
+  // Old Mac line ends (CR alone) would make the whole file one line, which
+  // the first comment swallows: read them as line ends.
+  std::string yaml_text;
+  yaml_text.reserve(raw_text.size());
+  for (std::size_t i = 0; i < raw_text.size(); ++i) {
+    if (raw_text[i] == '\r') {
+      yaml_text += '\n';
+      if (i + 1 < raw_text.size() && raw_text[i + 1] == '\n') ++i;
+    } else {
+      yaml_text += raw_text[i];
+    }
+  }
   YAML::Node doc;
   try {
+    const std::vector<YAML::Node> documents = YAML::LoadAll(yaml_text);
+    if (documents.size() > 1)
+      throw InputError(name + ": holds " + std::to_string(documents.size()) +
+                       " YAML documents (separated by ---); a case file is one");
     doc = YAML::Load(yaml_text);
   } catch (const YAML::ParserException& e) {
     if (e.mark.is_null()) throw InputError(name + ": YAML syntax error: " + e.msg);
@@ -564,6 +600,7 @@ CaseConfig parse_case(const std::string& yaml_text, const std::string& name) {
     const std::string what = doc.IsNull() ? "it is empty" : doc.IsSequence() ? "it is a list" : "it is a single value";
     throw InputError(name + ": the case file must be a YAML map (grid, time, materials, bodies, ...); " + what);
   }
+  check_yaml_node(doc, name);
   YamlSection root(doc, "", name);
   return parse_root(root, doc);
 }
