@@ -508,7 +508,7 @@ TEST_CASE("step and output counts are bounded, and the bounds can be raised expl
         1000000);
 }
 
-TEST_CASE("CR line ends read as line ends; NUL characters are refused", "[config]") {
+TEST_CASE("CR line ends read as line ends, NUL characters are refused", "[config]") {
   // Old Mac line ends: the first comment swallowed the whole file ("it is empty").
   std::string cr = "# a comment\n" + valid;
   for (char& ch : cr)

@@ -79,7 +79,7 @@ TEST_CASE("half-plane at an arbitrary angle: gap (x - p).n, normal n", "[obstacl
   }
 }
 
-TEST_CASE("box: distance to the closest face, edge or corner outside; minus the nearest face's inside", "[obstacle]") {
+TEST_CASE("box: distance to the closest face, edge or corner outside, minus the nearest face's inside", "[obstacle]") {
   SECTION("2D, box [0, 1] x [0, 2]") {
     const Obstacle<2> b(box({0.0, 0.0}, {1.0, 2.0}));
     // Corner region: Euclidean distance to the corner (1, 2).

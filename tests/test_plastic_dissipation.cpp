@@ -47,7 +47,7 @@ Dissipation sweep(const Material& m, unsigned seed) {
 
 }  // namespace
 
-TEST_CASE("cohesionless associated flow dissipates nothing; nonassociated flow does", "[plasticity]") {
+TEST_CASE("cohesionless associated flow dissipates nothing, nonassociated flow does", "[plasticity]") {
   for (int law = 0; law < 2; ++law) {
     const auto make = [&](double psi, double c) -> std::unique_ptr<Material> {
       if (law == 0) return std::make_unique<DruckerPrager>(drucker_prager_parameters(2000, 1e7, 0.3, 30, psi, c));

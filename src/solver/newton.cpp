@@ -389,6 +389,18 @@ void NewtonSolver<dim>::configure(PetscInt unknowns) {
     TALUS_PETSC(PCSetType(pc, PCGAMG));
   }
   TALUS_PETSC(SNESSetFromOptions(snes_));
+  {
+    // Right preconditioning is talus's choice for GMRES; a Krylov method
+    // asked for by option that has no right-preconditioned form (CG, MINRES,
+    // ...) gets its own default side instead of a PETSc error at the first
+    // solve, unless the side is an option too.
+    PetscBool gmres = PETSC_FALSE, side_given = PETSC_FALSE;
+    TALUS_PETSC(PetscObjectTypeCompareAny(reinterpret_cast<PetscObject>(ksp), &gmres, KSPGMRES, KSPFGMRES,
+                                          KSPLGMRES, KSPDGMRES, KSPPGMRES, KSPBCGS, KSPIBCGS, KSPFBCGS, KSPBCGSL,
+                                          KSPPREONLY, ""));
+    TALUS_PETSC(PetscOptionsHasName(nullptr, "talus_", "-ksp_pc_side", &side_given));
+    if (!gmres && !side_given) TALUS_PETSC(KSPSetPCSide(ksp, PC_SIDE_DEFAULT));
+  }
   PetscBool accelerated = PETSC_FALSE;
   TALUS_PETSC(PetscObjectTypeCompareAny(reinterpret_cast<PetscObject>(snes_), &accelerated, SNESNGMRES,
                                         SNESANDERSON, ""));
