@@ -4,7 +4,9 @@
 // by the case loader (north row first) giving the same closed form.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -225,4 +227,45 @@ TEST_CASE("a 3D terrain from an ESRI ASCII grid (north row first) gives the plan
     check_gap<3>(terrain, x, 0.0, (x[2] - a * x[0] - b * x[1] - c0) / norm, Vector<3>(-a, -b, 1.0) / norm);
   }
   std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("2D terrain polyline: the local search gives the full scan's gap and normal", "[obstacle]") {
+  // A rough terrain of 2000 vertices (random steps and slopes, some steep),
+  // queried at random points above, below and beyond its ends: the bisection
+  // search (src/contact/obstacle.cpp) must return exactly what scanning every
+  // segment returns.
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> step(0.001, 0.05), slope(-3.0, 3.0), unit(0.0, 1.0);
+  ObstacleConfig c;
+  c.name = "rough";
+  c.shape = ObstacleShape::terrain;
+  double x = 0.0, y = 0.0;
+  for (int k = 0; k < 2000; ++k) {
+    c.polyline.push_back({x, y});
+    const double dx = step(rng);
+    x += dx;
+    y += slope(rng) * dx;
+  }
+  const Obstacle<2> terrain(c);
+  const auto& v = c.polyline;
+  const std::size_t segments = v.size() - 1;
+  int checked = 0;
+  for (int q = 0; q < 3000; ++q) {
+    const Vector<2> p(-1.0 + (x + 2.0) * unit(rng), -3.0 + 6.0 * unit(rng));
+    // The full scan, as the code did before the local search.
+    double best = std::numeric_limits<double>::infinity();
+    Vector<2> closest = Vector<2>::Zero();
+    for (std::size_t s = 0; s < segments; ++s) {
+      const Vector<2> a(v[s][0], v[s][1]), b(v[s + 1][0], v[s + 1][1]), d = b - a;
+      double t = (p - a).dot(d) / d.squaredNorm();
+      t = std::clamp(t, s == 0 ? -1e300 : 0.0, s + 1 == segments ? 1e300 : 1.0);
+      const double distance = (p - (a + t * d)).norm();
+      if (distance < best) best = distance, closest = a + t * d;
+    }
+    const ObstacleGap<2> g = terrain.gap(p, 0.0);
+    REQUIRE(std::abs(g.gap) == best);
+    if (best > 1e-9) CHECK((g.normal - std::copysign(1.0, g.gap) * (p - closest) / best).norm() < 1e-14);
+    ++checked;
+  }
+  CHECK(checked == 3000);
 }

@@ -53,17 +53,31 @@ ObstacleGap<dim> box_gap(const ObstacleConfig& c, const Vector<dim>& x) {
 // 2D terrain: the distance to the polyline (end segments extended), negative
 // below it. The normal points from the closest point to x (outward), or is
 // the segment's normal when x lies on the polyline.
+//
+// The vertices are sorted by x (checked on reading), so the search is local:
+// the segment under x gives a distance d0, and only segments reaching into
+// [x - d0, x + d0] can be closer; they are found by bisection. O(log n + k)
+// instead of O(n) per query (a 1e6-vertex terrain spent 42 s in contact over
+// 6 steps), and the same result as the full scan: segments outside the range
+// are farther than d0, so they cannot even tie.
 ObstacleGap<2> polyline_gap(const ObstacleConfig& c, const Vector<2>& x) {
   const auto& v = c.polyline;
   const std::size_t segments = v.size() - 1;
-  double best = std::numeric_limits<double>::infinity();
+  const double infinity = std::numeric_limits<double>::infinity();
+  // The segment whose x-range holds `at` (the end segments extended).
+  const auto segment_at = [&](double at) -> std::size_t {
+    const auto it = std::upper_bound(v.begin() + 1, v.end() - 1, at,
+                                     [](double value, const std::array<double, 2>& p) { return value <= p[0]; });
+    return static_cast<std::size_t>(it - (v.begin() + 1));
+  };
+  double best = infinity;
   Vector<2> closest = Vector<2>::Zero(), segment_normal(0.0, 1.0);
-  for (std::size_t s = 0; s < segments; ++s) {
+  const auto visit = [&](std::size_t s) {
     const Vector<2> a(v[s][0], v[s][1]), b(v[s + 1][0], v[s + 1][1]);
     const Vector<2> d = b - a;
     double t = (x - a).dot(d) / d.squaredNorm();
-    const double lo = s == 0 ? -std::numeric_limits<double>::infinity() : 0.0;
-    const double hi = s + 1 == segments ? std::numeric_limits<double>::infinity() : 1.0;
+    const double lo = s == 0 ? -infinity : 0.0;
+    const double hi = s + 1 == segments ? infinity : 1.0;
     t = std::clamp(t, lo, hi);
     const Vector<2> y = a + t * d;
     const double distance = (x - y).norm();
@@ -72,10 +86,16 @@ ObstacleGap<2> polyline_gap(const ObstacleConfig& c, const Vector<2>& x) {
       closest = y;
       segment_normal = Vector<2>(-d[1], d[0]).normalized();
     }
-  }
+  };
+  const std::size_t under = segment_at(x[0]);
+  visit(under);
+  const double reach = best;
+  const std::size_t first = segment_at(x[0] - reach), last = segment_at(x[0] + reach);
+  // In index order, as the full scan: the first of equally close segments wins.
+  best = infinity;
+  for (std::size_t s = first; s <= last; ++s) visit(s);
   // Below or above: the height of the polyline at x[0] (end segments extended).
-  std::size_t s = 0;
-  while (s + 1 < segments && x[0] > v[s + 1][0]) ++s;
+  const std::size_t s = under;
   const double t = (x[0] - v[s][0]) / (v[s + 1][0] - v[s][0]);
   const double height = v[s][1] + t * (v[s + 1][1] - v[s][1]);
   const double sign = x[1] >= height ? 1.0 : -1.0;
