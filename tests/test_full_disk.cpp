@@ -6,7 +6,8 @@
 //
 // The full disk is a file-size limit (RLIMIT_FSIZE, SIGXFSZ ignored as talus
 // does), set inside this process after MPI started: it needs no privileges,
-// and MPI's own start-up files are not subject to it.
+// and MPI's own start-up files are not subject to it. On 2 ranks the limit
+// holds on both, so each rank's piece fails and all must agree to stop.
 #include <sys/resource.h>
 #include <vtkNew.h>
 #include <vtkUnstructuredGrid.h>
@@ -62,7 +63,15 @@ std::string column(const std::string& directory, double end, bool output) {
          "boundaries: {y_min: fixed}\n";
 }
 
+void fresh_directory(const std::string& directory) {
+  int rank = 0;
+  MPI_Comm_rank(PETSC_COMM_WORLD, &rank);
+  if (rank == 0) fs::remove_all(directory);
+  MPI_Barrier(PETSC_COMM_WORLD);
+}
+
 std::vector<std::string> leftovers(const std::string& directory) {
+  MPI_Barrier(PETSC_COMM_WORLD);
   std::vector<std::string> found;
   for (const auto& e : fs::recursive_directory_iterator(directory)) {
     const std::string name = e.path().filename().string();
@@ -78,15 +87,16 @@ std::string contents(const std::string& path) {
 
 }  // namespace
 
-TEST_CASE("a full disk at an output stops the run and keeps the earlier outputs", "[output]") {
-  const std::string dir = "full_disk_output";
-  fs::remove_all(dir);
-  Simulation<2> sim(testing::case_from_yaml(column(dir, 0.2, true)), PETSC_COMM_SELF);
+TEST_CASE("a full disk at an output stops the run and keeps the earlier outputs", "[output][mpi]") {
+  const std::string dir = "full_disk_output_" + std::to_string(testing::comm_size(PETSC_COMM_WORLD));
+  fresh_directory(dir);
+  Simulation<2> sim(testing::case_from_yaml(column(dir, 0.2, true)), PETSC_COMM_WORLD);
   {
     // The t = 0 piece is 10 kB, the t = 0.1 one 93 kB (zlib-compressed).
     const FileSizeLimit limit(40 * 1024);
     CHECK_THROWS_AS(sim.run(nullptr), OutputError);
   }
+  MPI_Barrier(PETSC_COMM_WORLD);
   CHECK(leftovers(dir).empty());
   CHECK_FALSE(fs::exists(dir + "/particles_000001.pvtu"));
   const std::string pvd = contents(dir + "/particles.pvd");
@@ -99,21 +109,23 @@ TEST_CASE("a full disk at an output stops the run and keeps the earlier outputs"
   reader->SetFileName((dir + "/" + files[0]).c_str());
   reader->Update();
   CHECK(reader->GetOutput()->GetNumberOfPoints() == 800);
+  MPI_Barrier(PETSC_COMM_WORLD);
 }
 
-TEST_CASE("a checkpoint that does not fit leaves the previous one intact and restartable", "[output][checkpoint]") {
-  const std::string dir = "full_disk_checkpoint";
-  fs::remove_all(dir);
+TEST_CASE("a checkpoint that does not fit leaves the previous one intact and restartable", "[output][checkpoint][mpi]") {
+  const std::string dir = "full_disk_checkpoint_" + std::to_string(testing::comm_size(PETSC_COMM_WORLD));
+  fresh_directory(dir);
   std::string good;
   {
-    Simulation<2> first(testing::case_from_yaml(column(dir, 0.05, false)), PETSC_COMM_SELF);
+    Simulation<2> first(testing::case_from_yaml(column(dir, 0.05, false)), PETSC_COMM_WORLD);
     good = first.run(nullptr).last_checkpoint;
   }
   REQUIRE(fs::exists(good));
+  MPI_Barrier(PETSC_COMM_WORLD);
   const std::string before = contents(good);
   {
     // A checkpoint of the 800 particles is about 190 kB.
-    Simulation<2> second(testing::case_from_yaml(column(dir, 0.1, false)), PETSC_COMM_SELF);
+    Simulation<2> second(testing::case_from_yaml(column(dir, 0.1, false)), PETSC_COMM_WORLD);
     second.restart(good);
     const FileSizeLimit limit(100 * 1024);
     CHECK_THROWS_WITH(second.run(nullptr), Catch::Contains("writing a checkpoint at t = 0.1"));
@@ -123,7 +135,8 @@ TEST_CASE("a checkpoint that does not fit leaves the previous one intact and res
   for (const auto& e : fs::directory_iterator(dir)) checkpoints.push_back(e.path().string());
   CHECK(checkpoints == std::vector<std::string>{good});
   CHECK(contents(good) == before);
-  Simulation<2> third(testing::case_from_yaml(column(dir, 0.1, false)), PETSC_COMM_SELF);
+  MPI_Barrier(PETSC_COMM_WORLD);
+  Simulation<2> third(testing::case_from_yaml(column(dir, 0.1, false)), PETSC_COMM_WORLD);
   third.restart(good);
   CHECK_NOTHROW(third.run(nullptr));
   CHECK(third.time() == Approx(0.1));

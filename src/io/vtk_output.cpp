@@ -191,7 +191,7 @@ std::string VtkSeries<dim>::write(const Particles<dim>& particles, double time) 
   if (!all_ok) {
     MPI_Barrier(comm_);
     if (rank == 0) std::filesystem::remove_all(staging);
-    throw std::runtime_error("VTK could not write " + staged + (ok ? " (on another rank)" : " (disk full?)"));
+    throw std::runtime_error("VTK could not write the output " + stem.str() + (ok ? " (on another rank)" : " in " + staging + " (disk full?)"));
   }
   // VTK writes no piece for a rank without particles (nor lists it in the .pvtu).
   const std::string piece = stem.str() + "_" + std::to_string(rank) + ".vtu";
