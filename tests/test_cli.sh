@@ -207,7 +207,10 @@ PY
 sed -e "s#directory: .*#directory: $work/sig#" -e "s#end: .*#end: 1.0#" "$repo/inputs/column_collapse_psi0.yaml" > sig.yaml
 "$talus" run sig.yaml > sig.log 2>&1 &
 pid=$!
-for _ in $(seq 1 100); do grep -q "^step " sig.log 2>/dev/null && break; sleep 0.1; done
+# Up to 60 s for the first step line: on a loaded machine (ctest -j2 beside
+# other jobs) the start can take long, and a signal before the run installs
+# its handler would kill it without a checkpoint.
+for _ in $(seq 1 600); do grep -q "^step " sig.log 2>/dev/null && break; sleep 0.1; done
 kill -INT $pid
 set +e
 wait $pid
