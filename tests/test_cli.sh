@@ -127,6 +127,12 @@ sed -e "s#directory: .*#directory: $work/unused_out#" -e "s#  end: .*#  end: 0.0
 grep -q "talus: warning: PETSc options never read by the solver (misspelled, or for another solver configuration): -talus_snes_monitr$" unused.err ||
   { echo "FAIL: no warning for -talus_snes_monitr"; cat unused.err; exit 1; }
 
+# Linear hats are accepted with a warning about the cell-crossing error (docs/grid.md).
+sed -e "s#directory: .*#directory: $work/linear_out#" -e "s#shape_function: .*#shape_function: linear#" "$repo/inputs/elastic_column.yaml" > linear.yaml
+"$talus" check linear.yaml > linear.log 2> linear.err || { echo "FAIL: a linear-hat case was refused"; cat linear.err; exit 1; }
+grep -q "talus: warning: linear.yaml: grid.shape_function = linear has the cell-crossing error of classic MPM" linear.err ||
+  { echo "FAIL: no cell-crossing warning"; cat linear.yaml linear.err; exit 1; }
+
 # Arguments that are neither talus's nor PETSc options: exit 2, named, no output.
 for bad in "--bogus|unknown option --bogus" "-help|-help: talus --help prints the usage" \
            "other.yaml|unexpected argument 'other.yaml'" "-talus_snes_monitor a b|unexpected argument 'b'"; do

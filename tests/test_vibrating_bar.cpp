@@ -24,7 +24,7 @@ struct BarResult {
   int steps;
 };
 
-BarResult run_bar(int cells_along_bar, double theta, const std::string& shape, double courant) {
+BarResult run_bar(int cells_along_bar, double theta, const std::string& shape, double courant, double v0 = ::v0) {
   const double dx = L / cells_along_bar;
   const double c = std::sqrt(E / rho);
   const double beta = M_PI / (2 * L), omega = beta * c, period = 2 * M_PI / omega;
@@ -107,4 +107,26 @@ TEST_CASE("vibrating bar: first order with backward Euler (theta = 1)", "[bar]")
 TEST_CASE("vibrating bar: linear shape functions converge", "[bar]") {
   const auto e = refinement_study(0.5, "linear");
   CHECK(std::log2(e[1] / e[2]) > 1.8);  // measured 2.0: no particle crosses a cell here
+}
+
+// Issue 13, item 4: the cell-crossing error of linear hats. At a velocity
+// amplitude of 0.1 m/s the bar's displacement amplitude is 6.4 mm (strain
+// 1 %): less than a cell at 32 cells, several cells' worth of crossings at
+// 128. Linear hats then diverge under refinement (measured 2026-11-25:
+// 6.5e-3 at 32 cells, 1.4e-1 at 64, 2.1e-1 at 128), while quadratic
+// B-splines keep converging to the large-amplitude floor of this small-strain
+// closed form (1.23e-2, 1.12e-2, 1.09e-2; the floor is issue 13's finite
+// strain item). talus warns when a case chooses linear hats (docs/grid.md).
+TEST_CASE("vibrating bar at large amplitude: linear hats diverge once particles cross cells, B-splines do not",
+          "[verification]") {
+  const double amplitude = 0.1;
+  const double linear_32 = run_bar(32, 0.5, "linear", 0.5, amplitude).error;
+  const double linear_128 = run_bar(128, 0.5, "linear", 0.5, amplitude).error;
+  const double spline_32 = run_bar(32, 0.5, "quadratic_bspline", 0.5, amplitude).error;
+  const double spline_128 = run_bar(128, 0.5, "quadratic_bspline", 0.5, amplitude).error;
+  std::printf("vibrating bar, v0 = 0.1 m/s: linear %.3e (32 cells) -> %.3e (128), quadratic B-splines %.3e -> %.3e\n",
+              linear_32, linear_128, spline_32, spline_128);
+  CHECK(linear_128 > 5 * linear_32);      // measured 32 times larger
+  CHECK(spline_128 <= spline_32);         // measured 1.09e-2 against 1.23e-2
+  CHECK(spline_128 < 0.1 * linear_128);   // measured 19 times smaller
 }

@@ -135,6 +135,12 @@ int main(int argc, char** argv) {
   int code = 0;
   try {
     const talus::CaseConfig config = talus::load_case(argv[2]);
+    if (config.grid.shape == talus::ShapeKind::linear && rank == 0)
+      // Issue 13, item 4 (docs/grid.md#linear-hats-linear): a valid choice
+      // for small motions, a wrong one for a landslide.
+      std::cerr << "talus: warning: " << argv[2] << ": grid.shape_function = linear has the cell-crossing error of "
+                   "classic MPM: once particles cross cells the error grows under refinement; use "
+                   "quadratic_bspline (the default) unless every particle stays within its cell\n";
     if (command == "check") {
       talus::apply_case_petsc_options(config);
       talus::check_petsc_options(PETSC_COMM_WORLD);
