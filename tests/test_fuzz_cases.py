@@ -17,6 +17,7 @@ usage: test_fuzz_cases.py TALUS_BINARY SOURCE_DIR [COUNT] [SEED]
 import glob
 import os
 import random
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -70,10 +71,14 @@ def mutate(doc):
     return f"wrapped {'.'.join(map(str, path))}"
 
 
-cases = sorted(glob.glob(os.path.join(source, "inputs", "*.yaml")))
 failures = []
 outcomes = {0: 0, 2: 0}
 with tempfile.TemporaryDirectory() as work:
+    # A copy of inputs/ (with its data files): the mutated cases live beside
+    # their data, and never in the source tree, where another test (cli)
+    # checks every inputs/*.yaml at the same time.
+    shutil.copytree(os.path.join(source, "inputs"), os.path.join(work, "inputs"))
+    cases = sorted(glob.glob(os.path.join(work, "inputs", "*.yaml")))
     for n in range(count):
         case = rng.choice(cases)
         doc = yaml.safe_load(open(case))
