@@ -8,8 +8,10 @@
 // reads every particle and keeps the ones whose cell this rank owns, so a run
 // can restart on any number of ranks; on the same number of ranks every
 // particle comes back to its rank in its order (the grid's ownership ranges
-// are stored and restored, docs/parallel.md), and the restarted run repeats
-// the uninterrupted one bit for bit.
+// are stored and restored, docs/parallel.md). On one rank the restarted run
+// repeats the uninterrupted one bit for bit; on several ranks to the solver
+// tolerance (the parallel reductions already make two uninterrupted runs
+// differ in the last bits; docs/checkpoints.md#restart).
 #include <string>
 #include <utility>
 #include <vector>
