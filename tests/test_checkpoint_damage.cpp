@@ -191,9 +191,11 @@ TEST_CASE("a restart with another case is refused, naming what differs", "[check
                          "gravity: [0, -1.62]\n"));
   }
   SECTION("the same case written differently, run longer with another step, is accepted") {
-    // Keys reordered, block style, 2e3 for 2000: the same fingerprint.
+    // Keys reordered, block style, 2e3 for 2000, defaults written out
+    // (shape_function, transfer, contact): the same fingerprint.
     const std::string same = column(
-        "grid:\n  cell_size: 5.0e-2\n  upper: [1, 0.6]\n  lower: [0.0, 0.0]\n",
+        "grid:\n  cell_size: 5.0e-2\n  upper: [1, 0.6]\n  lower: [0.0, 0.0]\n  shape_function: quadratic_bspline\n"
+        "transfer: {scheme: apic}\ncontact: {gap_prediction: 0.5}\n",
         "materials:\n  - {model: drucker_prager, name: sand, density: 2e3, youngs_modulus: 1000000,"
         " poisson_ratio: 0.3, friction_angle: 30, dilatancy_angle: 0, cohesion: 0}\n",
         "gravity: [0, -9.81]\n", "time: {end: 0.03125, step: 0.001953125}\n");

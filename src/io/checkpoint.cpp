@@ -88,9 +88,10 @@ void write_text_attribute(hid_t location, const char* name, const std::string& t
   check(H5Awrite(attr.id, type.id, text.c_str()), name);
 }
 
-// 2: with the case fingerprint and the talus version (2026-11-25); 1 (no
-// attribute): before.
-constexpr int checkpoint_format = 2;
+// 3: the case fingerprint of grid, gravity, boundaries, contact and
+// transfer from their parsed values (2026-11-25); 2: all sections as YAML
+// text, the same day; 1 (no attribute): before, without a fingerprint.
+constexpr int checkpoint_format = 3;
 
 // A damaged checkpoint: what is wrong with it, for "not a valid talus checkpoint: <what>".
 struct Damaged : std::runtime_error {

@@ -320,15 +320,32 @@ std::string directory_problem(const std::string& directory) {
   return "";
 }
 
-CaseFingerprint case_fingerprint(const YAML::Node& doc, const std::string& case_file) {
-  const std::filesystem::path base = std::filesystem::path(case_file).parent_path();
-  CaseFingerprint f;
-  for (const char* section : {"grid", "gravity", "materials", "bodies", "boundaries", "obstacles", "contact", "transfer"}) {
-    YAML::Node node = doc[section] ? YAML::Clone(doc[section]) : YAML::Node();
-    // A resource limit, not part of the physics: it may change on restart.
-    if (node.IsMap() && std::string(section) == "grid") node.remove("memory_limit_gb");
-    f.emplace_back(section, node ? canonical(node, base, section) : "default");
+CaseFingerprint case_fingerprint(const YAML::Node& doc, const CaseConfig& c) {
+  const std::filesystem::path base = std::filesystem::path(c.source_file).parent_path();
+  // The sections with few keys from their parsed values, defaults included,
+  // so that writing a default out (shape_function: quadratic_bspline,
+  // transfer: {scheme: apic}) is not a change; materials, bodies and
+  // obstacles from their canonical YAML text.
+  const char* const shapes[2] = {"quadratic_bspline", "linear"};
+  std::string grid = "lower: " + list_text(c.grid.lower) + ", upper: " + list_text(c.grid.upper) +
+                     ", cell_size: " + number_text(c.grid.cell_size) +
+                     ", shape_function: " + shapes[c.grid.shape == ShapeKind::linear];
+  std::string boundaries;
+  for (int i = 0; i < 2 * c.dim; ++i) {
+    boundaries += (i ? ", " : "") + std::string(face_names[i]) + ": " + face_conditions[static_cast<int>(c.faces[i])];
+    if (c.faces[i] == FaceCondition::frictional)
+      boundaries += " (friction " + number_text(c.face_contact[i].friction) + ", restitution " +
+                    number_text(c.face_contact[i].restitution) + ")";
   }
+  CaseFingerprint f;
+  f.emplace_back("grid", grid);
+  f.emplace_back("gravity", list_text(c.gravity));
+  for (const char* section : {"materials", "bodies"}) f.emplace_back(section, canonical(doc[section], base, section));
+  f.emplace_back("boundaries", boundaries);
+  f.emplace_back("obstacles", doc["obstacles"] ? canonical(doc["obstacles"], base, "obstacles") : "none");
+  f.emplace_back("contact", "gap_prediction: " + number_text(c.contact.gap_prediction));
+  f.emplace_back("transfer", std::string("scheme: ") + (c.transfer.scheme == TransferScheme::apic ? "apic" : "flip") +
+                                 ", flip_blend: " + number_text(c.transfer.flip_blend));
   return f;
 }
 
@@ -537,7 +554,7 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
     }
   }
   root.finish();
-  c.fingerprint = case_fingerprint(doc, c.source_file);
+  c.fingerprint = case_fingerprint(doc, c);
   return c;
 }
 
