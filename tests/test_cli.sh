@@ -104,21 +104,23 @@ set -e
 [ "$code" -eq 2 ] && grep -q "talus: error: /dev/zero: is not a regular file, not a case file" zero.log ||
   { echo "FAIL: /dev/zero as a case file: exit $code"; cat zero.log; exit 1; }
 
-# PETSc options with values this PETSc cannot use: exit 2 before anything is written.
-for bad in "-talus_ksp_type nonsense|PETSc option -talus_ksp_type nonsense: not a Krylov method" \
-           "-talus_snes_rtol nan|PETSc option -talus_snes_rtol nan: expected a finite number >= 0" \
-           "-talus_pc_type nothing|PETSc option -talus_pc_type nothing: not a preconditioner"; do
-  args=${bad%%|*}
-  message=${bad#*|}
+# refused ARGS MESSAGE: `talus run bad_option.yaml ARGS` exits with 2, prints
+# "talus: error: MESSAGE", no PETSc trace, and writes no output.
+refused() {
   set +e
-  "$talus" run bad_option.yaml $args > bad_option.log 2>&1
-  code=$?
+  "$talus" run bad_option.yaml $1 > bad_option.log 2>&1
+  local code=$?
   set -e
-  [ "$code" -eq 2 ] || { echo "FAIL: exit code $code for '$args' (want 2)"; cat bad_option.log; exit 1; }
-  grep -qF -- "talus: error: $message" bad_option.log || { echo "FAIL: message for '$args'"; cat bad_option.log; exit 1; }
-  grep -q "PETSC ERROR" bad_option.log && { echo "FAIL: a PETSc trace for '$args'"; cat bad_option.log; exit 1; }
-  [ ! -e "$work/bad_option_out" ] || { echo "FAIL: a bad PETSc option wrote output"; exit 1; }
-done
+  [ "$code" -eq 2 ] || { echo "FAIL: exit code $code for '$1' (want 2)"; cat bad_option.log; exit 1; }
+  grep -qF -- "talus: error: $2" bad_option.log || { echo "FAIL: message for '$1'"; cat bad_option.log; exit 1; }
+  ! grep -q "PETSC ERROR" bad_option.log || { echo "FAIL: a PETSc trace for '$1'"; cat bad_option.log; exit 1; }
+  [ ! -e "$work/bad_option_out" ] || { echo "FAIL: '$1' wrote output"; exit 1; }
+}
+
+# PETSc options with values this PETSc cannot use: exit 2 before anything is written.
+refused "-talus_ksp_type nonsense" "PETSc option -talus_ksp_type nonsense: not a Krylov method"
+refused "-talus_snes_rtol nan" "PETSc option -talus_snes_rtol nan: expected a finite number >= 0"
+refused "-talus_pc_type nothing" "PETSc option -talus_pc_type nothing: not a preconditioner"
 
 # A misspelled solver option is named after the first step (PETSc reads
 # options lazily), and a correct one is not.
@@ -134,18 +136,10 @@ grep -q "talus: warning: linear.yaml: grid.shape_function = linear has the cell-
   { echo "FAIL: no cell-crossing warning"; cat linear.yaml linear.err; exit 1; }
 
 # Arguments that are neither talus's nor PETSc options: exit 2, named, no output.
-for bad in "--bogus|unknown option --bogus" "-help|-help: talus --help prints the usage" \
-           "other.yaml|unexpected argument 'other.yaml'" "-talus_snes_monitor a b|unexpected argument 'b'"; do
-  args=${bad%%|*}
-  message=${bad#*|}
-  set +e
-  "$talus" run bad_option.yaml $args > bad_option.log 2>&1
-  code=$?
-  set -e
-  [ "$code" -eq 2 ] || { echo "FAIL: exit code $code for '$args' (want 2)"; cat bad_option.log; exit 1; }
-  grep -qF -- "talus: error: command line: $message" bad_option.log || { echo "FAIL: message for '$args'"; cat bad_option.log; exit 1; }
-  [ ! -e "$work/bad_option_out" ] || { echo "FAIL: a bad argument wrote output"; exit 1; }
-done
+refused "--bogus" "command line: unknown option --bogus"
+refused "-help" "command line: -help: talus --help prints the usage"
+refused "other.yaml" "command line: unexpected argument 'other.yaml'"
+refused "-talus_snes_monitor a b" "command line: unexpected argument 'b'"
 set +e
 "$talus" run bad_option.yaml -talus_newton_predictor lats > bad_option.log 2>&1
 code=$?

@@ -59,7 +59,7 @@ double run_steps(Simulation<2>& sim, double h, double t_end, long* newton = null
 
 // Grid aligned with the slope: gravity tilted by theta, the floor y_min a
 // frictional face. Returns the slide distance of the centre of mass at t.
-double aligned_incline(double theta_deg, double mu, double t, double step, long* newton, long* steps) {
+CaseConfig aligned_incline_case(double theta_deg, double mu) {
   const double theta = theta_deg * pi / 180.0;
   CaseConfig c = testing::case_from_yaml(
       "grid: {lower: [0, 0], upper: [1.2, 0.4], cell_size: 0.05}\n"
@@ -71,7 +71,11 @@ double aligned_incline(double theta_deg, double mu, double t, double step, long*
       "boundaries: {x_min: free, x_max: free, y_min: slip, y_max: free}\n");
   c.faces[2] = FaceCondition::frictional;
   c.face_contact[2].friction = mu;
-  Simulation<2> sim(c, PETSC_COMM_WORLD);
+  return c;
+}
+
+double aligned_incline(double theta_deg, double mu, double t, double step, long* newton, long* steps) {
+  Simulation<2> sim(aligned_incline_case(theta_deg, mu), PETSC_COMM_WORLD);
   const Vector<2> x0 = mean_field(sim.particles(), field::position);
   run_steps(sim, step, t, newton, steps);
   const Vector<2> x1 = mean_field(sim.particles(), field::position);
@@ -368,19 +372,10 @@ TEST_CASE("Earth pressure on a frictionless wall: K0 rho g H^2 / 2, first order 
 // points' states are right, so both take one iteration per step; what the
 // predictor changes is the start.
 TEST_CASE("the last-acceleration predictor starts a steadily sliding block near balance", "[contact][solver]") {
-  const double theta = 30.0 * pi / 180.0, mu = 0.3, h = 0.005;
+  const double mu = 0.3, h = 0.005;
   const auto start_residuals = [&](const char* predictor) {
     const testing::ScopedOption start("-talus_newton_predictor", predictor);
-    CaseConfig c = testing::case_from_yaml(
-        "grid: {lower: [0, 0], upper: [1.2, 0.4], cell_size: 0.05}\n"
-        "time: {end: 1, step: 0.005}\n"
-        "output: {enabled: false}\n"
-        "gravity: [" + std::to_string(g * std::sin(theta)) + ", " + std::to_string(-g * std::cos(theta)) + "]\n"
-        "materials: [" + stiff_block + "]\n"
-        "bodies: [{name: block, material: rock, box: {lower: [0.1, 0.0], upper: [0.5, 0.2]}}]\n"
-        "boundaries: {x_min: free, x_max: free, y_min: slip, y_max: free}\n");
-    c.faces[2] = FaceCondition::frictional;
-    c.face_contact[2].friction = mu;
+    const CaseConfig c = aligned_incline_case(30.0, mu);
     Simulation<2> sim(c, PETSC_COMM_WORLD);
     std::vector<double> norms;
     for (int n = 0; n < 40; ++n) {

@@ -10,6 +10,7 @@
 
 #include "talus/io/config.hpp"
 #include "talus/simulation.hpp"
+#include "talus/solver/petsc_options.hpp"
 
 namespace {
 

@@ -22,7 +22,7 @@
 #include "talus/io/body_config.hpp"
 #include "talus/io/terrain_file.hpp"
 #include "talus/io/yaml_section.hpp"
-#include "talus/solver/newton.hpp"
+#include "talus/solver/petsc_options.hpp"
 
 namespace talus {
 

@@ -1,4 +1,5 @@
 #include "talus/solver/newton.hpp"
+#include "talus/solver/petsc_options.hpp"
 
 #include <cerrno>
 #include <cmath>
@@ -164,93 +165,6 @@ PetscInt count_option(const char* name, PetscInt fallback) {
                      std::string(text) + "'");
   return static_cast<PetscInt>(value);
 }
-
-// Runs a PETSc call with PETSc's error printing off; true if it succeeded.
-template <class Call>
-bool petsc_accepts(Call&& call) {
-  PetscPushErrorHandler(PetscReturnErrorHandler, nullptr);
-  const PetscErrorCode code = call();
-  PetscPopErrorHandler();
-  return code == 0;
-}
-
-bool ends_with(const std::string& s, const std::string& tail) {
-  return s.size() >= tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
-}
-
-}  // namespace
-
-std::string petsc_option_problem(const std::string& name, const std::string& value, MPI_Comm comm) {
-  std::string problem;
-  // Object types: tried on a throwaway object of that class, so that the
-  // run does not stop with a PETSc error trace at its first step.
-  if (ends_with(name, "ksp_type")) {
-    KSP ksp;
-    TALUS_PETSC(KSPCreate(comm, &ksp));
-    if (!petsc_accepts([&] { return KSPSetType(ksp, value.c_str()); }))
-      problem = "not a Krylov method of this PETSc (e.g. gmres, bcgs, preonly)";
-    KSPDestroy(&ksp);
-  } else if (ends_with(name, "pc_type")) {
-    PC pc;
-    TALUS_PETSC(PCCreate(comm, &pc));
-    if (!petsc_accepts([&] { return PCSetType(pc, value.c_str()); }))
-      problem = "not a preconditioner of this PETSc (e.g. ilu, bjacobi, lu, gamg)";
-    PCDestroy(&pc);
-  } else if (ends_with(name, "linesearch_type")) {
-    SNESLineSearch ls;
-    TALUS_PETSC(SNESLineSearchCreate(comm, &ls));
-    if (!petsc_accepts([&] { return SNESLineSearchSetType(ls, value.c_str()); }))
-      problem = "not a line search of this PETSc (e.g. bt, basic, l2, cp)";
-    SNESLineSearchDestroy(&ls);
-  } else if (ends_with(name, "snes_type")) {
-    SNES snes;
-    TALUS_PETSC(SNESCreate(comm, &snes));
-    if (!petsc_accepts([&] { return SNESSetType(snes, value.c_str()); }))
-      problem = "not a nonlinear solver of this PETSc (e.g. newtonls, newtontr)";
-    SNESDestroy(&snes);
-  } else if (ends_with(name, "mat_type")) {
-    Mat m;
-    TALUS_PETSC(MatCreate(comm, &m));
-    TALUS_PETSC(MatSetSizes(m, PETSC_DECIDE, PETSC_DECIDE, 1, 1));
-    if (!petsc_accepts([&] { return MatSetType(m, value.c_str()); }))
-      problem = "not a matrix type of this PETSc (e.g. aij, baij)";
-    MatDestroy(&m);
-  } else if (ends_with(name, "rtol") || ends_with(name, "atol") || ends_with(name, "stol") ||
-             ends_with(name, "divtol") || ends_with(name, "_damping") || ends_with(name, "ew_rtol0") ||
-             ends_with(name, "ew_rtolmax") || ends_with(name, "ew_gamma") || ends_with(name, "ew_alpha")) {
-    // Tolerances: a number, finite and not negative (NaN would never stop).
-    char* end = nullptr;
-    const double x = std::strtod(value.c_str(), &end);
-    if (value.empty() || *end != '\0' || !std::isfinite(x) || x < 0) problem = "expected a finite number >= 0";
-  } else if (ends_with(name, "max_it") || ends_with(name, "max_funcs") || ends_with(name, "_restart") ||
-             ends_with(name, "factor_levels") || ends_with(name, "max_linear_solve_fail")) {
-    char* end = nullptr;
-    errno = 0;
-    const long n = std::strtol(value.c_str(), &end, 10);
-    if (value.empty() || *end != '\0' || errno == ERANGE || n < 0 || n > 100000000L)
-      problem = "expected an integer in [0, 1e8]";
-  }
-  return problem;
-}
-
-void check_petsc_options(MPI_Comm comm) {
-  // Every option given so far is still unused: PetscOptionsLeftGet lists
-  // them all (names without the dash).
-  PetscInt count = 0;
-  char** names = nullptr;
-  char** values = nullptr;
-  TALUS_PETSC(PetscOptionsLeftGet(nullptr, &count, &names, &values));
-  std::string problem;
-  for (PetscInt k = 0; k < count && problem.empty(); ++k) {
-    const std::string name = names[k], value = values[k] ? values[k] : "";
-    const std::string why = petsc_option_problem(name, value, comm);
-    if (!why.empty()) problem = "PETSc option -" + name + " " + value + ": " + why;
-  }
-  TALUS_PETSC(PetscOptionsLeftRestore(nullptr, &count, &names, &values));
-  if (!problem.empty()) throw InputError(problem);
-}
-
-namespace {
 
 // A talus-specific choice option -talus_<name> (one of `choices`, the first
 // the default), read once, before the run writes anything.

@@ -1,0 +1,19 @@
+#pragma once
+// Checks of PETSc option values before anything runs (docs/command_line.md#petsc-options).
+#include <mpi.h>
+
+#include <string>
+
+namespace talus {
+
+// Checks the values of the PETSc options given so far (command line and
+// case file) before anything runs: object types (KSP, PC, SNES, line search,
+// Mat) that this PETSc does not have, tolerances that are not finite numbers
+// >= 0, iteration counts that are not integers. Throws InputError naming the
+// option (docs/command_line.md#petsc-options).
+void check_petsc_options(MPI_Comm comm);
+// Why the PETSc option -name value is not valid ("" if it is); for the case
+// file's solver.petsc_options, checked where the case is read.
+std::string petsc_option_problem(const std::string& name, const std::string& value, MPI_Comm comm);
+
+}  // namespace talus

@@ -1,0 +1,98 @@
+#include "talus/solver/petsc_options.hpp"
+
+#include <petscksp.h>
+#include <petscsnes.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+
+#include "talus/core/errors.hpp"
+
+namespace talus {
+
+namespace {
+
+// True if PETSc accepts `type` for a throwaway object of one class (created,
+// typed with PETSc's error printing off, destroyed): so that the run does
+// not stop with a PETSc error trace at its first step.
+template <class Object, class Create, class SetType, class Destroy>
+bool petsc_accepts(MPI_Comm comm, const std::string& type, Create create, SetType set_type, Destroy destroy) {
+  Object object;
+  TALUS_PETSC(create(comm, &object));
+  PetscPushErrorHandler(PetscReturnErrorHandler, nullptr);
+  const PetscErrorCode code = set_type(object, type.c_str());
+  PetscPopErrorHandler();
+  destroy(&object);
+  return code == 0;
+}
+
+bool ends_with(const std::string& s, const std::string& tail) {
+  return s.size() >= tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
+}
+
+PetscErrorCode create_matrix(MPI_Comm comm, Mat* m) {
+  PetscCall(MatCreate(comm, m));
+  return MatSetSizes(*m, PETSC_DECIDE, PETSC_DECIDE, 1, 1);
+}
+
+}  // namespace
+
+std::string petsc_option_problem(const std::string& name, const std::string& value, MPI_Comm comm) {
+  if (ends_with(name, "ksp_type"))
+    return petsc_accepts<KSP>(comm, value, KSPCreate, KSPSetType, KSPDestroy)
+               ? ""
+               : "not a Krylov method of this PETSc (e.g. gmres, bcgs, preonly)";
+  if (ends_with(name, "pc_type"))
+    return petsc_accepts<PC>(comm, value, PCCreate, PCSetType, PCDestroy)
+               ? ""
+               : "not a preconditioner of this PETSc (e.g. ilu, bjacobi, lu, gamg)";
+  if (ends_with(name, "linesearch_type"))
+    return petsc_accepts<SNESLineSearch>(comm, value, SNESLineSearchCreate, SNESLineSearchSetType,
+                                         SNESLineSearchDestroy)
+               ? ""
+               : "not a line search of this PETSc (e.g. bt, basic, l2, cp)";
+  if (ends_with(name, "snes_type"))
+    return petsc_accepts<SNES>(comm, value, SNESCreate, SNESSetType, SNESDestroy)
+               ? ""
+               : "not a nonlinear solver of this PETSc (e.g. newtonls, newtontr)";
+  if (ends_with(name, "mat_type"))
+    return petsc_accepts<Mat>(comm, value, create_matrix, MatSetType, MatDestroy)
+               ? ""
+               : "not a matrix type of this PETSc (e.g. aij, baij)";
+  if (ends_with(name, "rtol") || ends_with(name, "atol") || ends_with(name, "stol") || ends_with(name, "divtol") ||
+      ends_with(name, "_damping") || ends_with(name, "ew_rtol0") || ends_with(name, "ew_rtolmax") ||
+      ends_with(name, "ew_gamma") || ends_with(name, "ew_alpha")) {
+    // Tolerances: a number, finite and not negative (NaN would never stop).
+    char* end = nullptr;
+    const double x = std::strtod(value.c_str(), &end);
+    if (value.empty() || *end != '\0' || !std::isfinite(x) || x < 0) return "expected a finite number >= 0";
+  } else if (ends_with(name, "max_it") || ends_with(name, "max_funcs") || ends_with(name, "_restart") ||
+             ends_with(name, "factor_levels") || ends_with(name, "max_linear_solve_fail")) {
+    char* end = nullptr;
+    errno = 0;
+    const long n = std::strtol(value.c_str(), &end, 10);
+    if (value.empty() || *end != '\0' || errno == ERANGE || n < 0 || n > 100000000L)
+      return "expected an integer in [0, 1e8]";
+  }
+  return "";
+}
+
+void check_petsc_options(MPI_Comm comm) {
+  // Every option given so far is still unused: PetscOptionsLeftGet lists
+  // them all (names without the dash).
+  PetscInt count = 0;
+  char** names = nullptr;
+  char** values = nullptr;
+  TALUS_PETSC(PetscOptionsLeftGet(nullptr, &count, &names, &values));
+  std::string problem;
+  for (PetscInt k = 0; k < count && problem.empty(); ++k) {
+    const std::string name = names[k], value = values[k] ? values[k] : "";
+    const std::string why = petsc_option_problem(name, value, comm);
+    if (!why.empty()) problem = "PETSc option -" + name + " " + value + ": " + why;
+  }
+  TALUS_PETSC(PetscOptionsLeftRestore(nullptr, &count, &names, &values));
+  if (!problem.empty()) throw InputError(problem);
+}
+
+}  // namespace talus
