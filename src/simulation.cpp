@@ -144,6 +144,7 @@ void Simulation<dim>::repartition(const Ownership<dim>& ownership) {
 
 template <int dim>
 StepReport Simulation<dim>::advance(double h) {
+  if (config_.time.integrator == Integrator::explicit_euler) return advance_explicit(h);
   StepReport report;
   report.h = h;
   const auto t0 = std::chrono::steady_clock::now();
@@ -194,13 +195,22 @@ StepReport Simulation<dim>::advance(double h) {
       for (int a = 0; a < dim; ++a)
         last_acceleration_[dim * i + a] = (v_end[dim * i + a] - v_start[dim * i + a]) / h;
   }
-  record_contact_forces(system, h);
+  record_contact_forces(system.contacts(), system.contact_impulses(), system.contact_maps(), h);
   if (grid_output()) record_grid_points(fields, system.end_velocity(), &system, h);
+  report.transfer_seconds += complete_step(system, stencils, fields, h, config_.time.theta);
+  report.converged = true;
+  return report;
+}
 
+// 7. G2P and 8. the commit of the material state, the same for both
+// integrators; returns its seconds.
+template <int dim>
+double Simulation<dim>::complete_step(const MomentumSystem<dim>& system, const std::vector<Stencil<dim>>& stencils,
+                                      const GridFields<dim>& fields, double h, double theta) {
   // 7. G2P: velocities, affine velocities, positions, deformation gradients.
   const auto t2 = std::chrono::steady_clock::now();
   grid_to_particles(*particles_, stencils, system.end_velocity(), system.start_velocity(), fields.velocity, h,
-                    config_.time.theta, config_.transfer);
+                    theta, config_.transfer);
   // 8. Commit the material state: sigma^{n+1} at the converged velocities.
   {
     DM sw = particles_->swarm();
@@ -221,23 +231,21 @@ StepReport Simulation<dim>::advance(double h) {
   check_finite();
   keep_particles_inside();
   particles_->migrate(*grid_);
-  report.transfer_seconds += seconds_since(t2);
   time_ += h;
-  report.converged = true;
-  return report;
+  return seconds_since(t2);
 }
 
 template <int dim>
-void Simulation<dim>::record_contact_forces(const MomentumSystem<dim>& system, double h) {
+void Simulation<dim>::record_contact_forces(const std::vector<ContactPoint<dim>>& contacts,
+                                           const std::vector<Vector<dim>>& impulses,
+                                           const std::vector<NaturalMap<dim>>& maps, double h) {
   nodal_contacts_.clear();
   std::vector<double> local(obstacles_.size() * dim, 0.0), total(local.size(), 0.0);
-  const auto& contacts = system.contacts();
   for (std::size_t c = 0; c < contacts.size(); ++c) {
-    const Vector<dim> force = system.contact_impulses()[c] / h;
+    const Vector<dim> force = impulses[c] / h;
     for (int a = 0; a < dim; ++a) local[contacts[c].obstacle * dim + a] += force[a];
-    nodal_contacts_.push_back(
-        {grid_->point_position(grid_->global_index(contacts[c].point)), force, contacts[c].obstacle,
-         system.contact_maps()[c].region});
+    nodal_contacts_.push_back({grid_->point_position(grid_->global_index(contacts[c].point)), force,
+                               contacts[c].obstacle, maps[c].region});
   }
   if (!obstacles_.empty())
     MPI_Allreduce(local.data(), total.data(), static_cast<int>(local.size()), MPI_DOUBLE, MPI_SUM, comm_);
@@ -634,7 +642,19 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
       write_output();
       while (next_output <= time_ + eps) next_output += config_.output.interval > 0 ? config_.output.interval : tc.end;
     }
-    if (progress && rank == 0) {
+    // The explicit integrator takes thousands of small steps: a line per
+    // output and per 100 steps.
+    const bool explicit_steps = tc.integrator == Integrator::explicit_euler;
+    if (progress && rank == 0 && explicit_steps && (due || summary.steps % 100 == 0)) {
+      const double elapsed = seconds_since(start);
+      const double eta = elapsed / (time_ - start_time) * (tc.end - time_);
+      *progress << "step " << std::setw(7) << summary.steps << "  t " << std::scientific << std::setprecision(4)
+                << time_ << "  h " << std::setprecision(3) << r.h << std::defaultfloat << std::setprecision(6)
+                << "  explicit  active " << r.active_points << "  ETA " << clock_text(eta)
+                << (due && vtk ? "  [output]" : "") << "\n";
+      progress->flush();
+    }
+    if (progress && rank == 0 && !explicit_steps) {
       const double elapsed = seconds_since(start);
       const double eta = elapsed / (time_ - start_time) * (tc.end - time_);
       *progress << "step " << std::setw(6) << summary.steps << "  t " << std::scientific << std::setprecision(4)

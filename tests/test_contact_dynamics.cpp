@@ -59,7 +59,7 @@ double run_steps(Simulation<2>& sim, double h, double t_end, long* newton = null
 
 // Grid aligned with the slope: gravity tilted by theta, the floor y_min a
 // frictional face. Returns the slide distance of the centre of mass at t.
-CaseConfig aligned_incline_case(double theta_deg, double mu) {
+CaseConfig aligned_incline_case(double theta_deg, double mu, bool explicit_steps = false) {
   const double theta = theta_deg * pi / 180.0;
   CaseConfig c = testing::case_from_yaml(
       "grid: {lower: [0, 0], upper: [1.2, 0.4], cell_size: 0.05}\n"
@@ -71,11 +71,13 @@ CaseConfig aligned_incline_case(double theta_deg, double mu) {
       "boundaries: {x_min: free, x_max: free, y_min: slip, y_max: free}\n");
   c.faces[2] = FaceCondition::frictional;
   c.face_contact[2].friction = mu;
+  if (explicit_steps) c.time.integrator = Integrator::explicit_euler;
   return c;
 }
 
-double aligned_incline(double theta_deg, double mu, double t, double step, long* newton, long* steps) {
-  Simulation<2> sim(aligned_incline_case(theta_deg, mu), PETSC_COMM_WORLD);
+double aligned_incline(double theta_deg, double mu, double t, double step, long* newton, long* steps,
+                       bool explicit_steps = false) {
+  Simulation<2> sim(aligned_incline_case(theta_deg, mu, explicit_steps), PETSC_COMM_WORLD);
   const Vector<2> x0 = mean_field(sim.particles(), field::position);
   run_steps(sim, step, t, newton, steps);
   const Vector<2> x1 = mean_field(sim.particles(), field::position);
@@ -84,7 +86,8 @@ double aligned_incline(double theta_deg, double mu, double t, double step, long*
 
 // Vertical gravity, the incline a half-plane through (0.1, 0.1) at theta, the
 // block a rotated rectangle resting on it. Returns the slide distance along the slope.
-double rotated_incline(double theta_deg, double mu, double t, double step, long* newton, long* steps) {
+double rotated_incline(double theta_deg, double mu, double t, double step, long* newton, long* steps,
+                       bool explicit_steps = false) {
   const double theta = theta_deg * pi / 180.0;
   const double c0 = std::cos(theta), s0 = std::sin(theta);
   // Rectangle 0.4 x 0.2 with its lower edge on the plane from 0.1 along the slope.
@@ -108,6 +111,7 @@ double rotated_incline(double theta_deg, double mu, double t, double step, long*
   plane.velocity = {0.0, 0.0};
   plane.friction = mu;
   c.obstacles.push_back(plane);
+  if (explicit_steps) c.time.integrator = Integrator::explicit_euler;
   Simulation<2> sim(c, PETSC_COMM_WORLD);
   const Vector<2> x0 = mean_field(sim.particles(), field::position);
   run_steps(sim, step, t, newton, steps);
@@ -143,6 +147,34 @@ TEST_CASE("Block sliding down an incline not aligned with the grid", "[contact][
   const double d = rotated_incline(theta, mu, t, h, &newton, &steps);
   INFO("Newton/step " << double(newton) / steps);
   check_slide(d, t, h, g * (std::sin(theta * pi / 180) - mu * std::cos(theta * pi / 180)));
+}
+
+// The explicit integrator (docs/explicit.md): the same block with the grid
+// velocities projected onto the Coulomb cone, at half the stable step of the
+// stiff block (c_p = 116 m/s, cell 0.05 m: limit 5.3e-4 s). Symplectic Euler
+// slides the same time-discrete 0.5 a t^2 (1 + h / t) as the implicit update.
+TEST_CASE("Explicit: a block slides down an incline at g (sin - mu cos), or sticks", "[contact][explicit][mpi]") {
+  const double theta = 30.0, mu = 0.3, t = 0.5;
+  const CaseConfig c = aligned_incline_case(theta, mu);
+  const double speed = std::sqrt(c.materials[0].law->elastic_stiffness()(0, 0) / c.materials[0].law->density());
+  const double h = 0.5 * explicit_stable_step(c.grid.shape, c.grid.cell_size, speed, 2);
+  const double a = g * (std::sin(theta * pi / 180) - mu * std::cos(theta * pi / 180));
+  long newton = 0, steps = 0;
+  check_slide(aligned_incline(theta, mu, t, h, &newton, &steps, true), t, h, a);
+  CHECK(newton == 0);
+  // Sticking (tan 20 deg < 0.5), grid aligned: the bound of the implicit test below.
+  CHECK(std::abs(aligned_incline(20.0, 0.5, t, h, &newton, &steps, true)) < 1e-4);
+  // The plane across the cells is where the explicit contact is less exact
+  // than the implicit one: a point is projected only while it approaches,
+  // so the block's elastic rebound under the first load lets some contact
+  // points separate and slip. Measured 2026-11-25: slide 0.2958 m against
+  // the time-discrete 0.2947 m (+0.37 %, the implicit step: within 0.3 %),
+  // and a creep of 3.9e-4 m of the sticking block (2.7e-4 m at h / 2; the
+  // implicit step: below 1e-4 m), 0.1 % of the frictionless 0.42 m slide.
+  const double rotated = rotated_incline(theta, mu, t, h, &newton, &steps, true);
+  const double discrete = 0.5 * a * t * t * (1.0 + h / t);
+  CHECK(std::abs(rotated - discrete) <= 0.005 * discrete);
+  CHECK(std::abs(rotated_incline(20.0, 0.5, t, h, &newton, &steps, true)) < 5e-4);
 }
 
 TEST_CASE("Block on an incline with tan(theta) < mu sticks", "[contact]") {

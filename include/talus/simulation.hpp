@@ -49,8 +49,9 @@ class Simulation {
  public:
   Simulation(const CaseConfig& config, MPI_Comm comm);
 
-  // One implicit step of size h. If Newton does not converge the particles
-  // are left exactly as they were and report.converged is false.
+  // One step of size h, implicit or explicit (time.integrator). If Newton
+  // does not converge the particles are left exactly as they were and
+  // report.converged is false.
   StepReport advance(double h);
 
   // Runs to config.time.end with cut-backs; writes VTK output if enabled, and
@@ -106,7 +107,16 @@ class Simulation {
   // last_acceleration_ to and from a checkpoint's rows (RunState).
   void store_last_acceleration(RunState& state) const;
   void restore_last_acceleration(const RunState& state);
-  void record_contact_forces(const MomentumSystem<dim>& system, double h);
+  // The contact forces r_i / h of the step's contact points, per obstacle
+  // (obstacle_force_) and per point (nodal_contacts_).
+  void record_contact_forces(const std::vector<ContactPoint<dim>>& contacts, const std::vector<Vector<dim>>& impulses,
+                             const std::vector<NaturalMap<dim>>& maps, double h);
+  // One explicit step (time.integrator: explicit; src/simulation_explicit.cpp).
+  StepReport advance_explicit(double h);
+  // G2P, the commit of the stresses and state of `system`, NaN check and
+  // migration; advances the time. Returns its seconds.
+  double complete_step(const MomentumSystem<dim>& system, const std::vector<Stencil<dim>>& stencils,
+                       const GridFields<dim>& fields, double h, double theta);
   void keep_particles_inside();
   bool grid_output() const { return config_.output.enabled && config_.output.grid; }
   // Stores grid_points_: mass, the velocity `velocity` (ghosted, dim per

@@ -5,6 +5,7 @@
 #include <csignal>
 #include <cstring>
 #include <iomanip>
+#include <sstream>
 #include <iostream>
 #include <string>
 
@@ -39,7 +40,11 @@ int run_case(const talus::CaseConfig& config, const std::string& restart, int ra
   if (rank == 0)
     std::cout << "talus: " << dim << "D case " << config.source_file << ", " << particles
               << " particles, grid " << sim.grid().cells()[0] << " x " << sim.grid().cells()[1]
-              << (dim == 3 ? " x " + std::to_string(sim.grid().cells()[dim - 1]) : std::string()) << " cells\n";
+              << (dim == 3 ? " x " + std::to_string(sim.grid().cells()[dim - 1]) : std::string()) << " cells"
+              << (config.time.integrator == talus::Integrator::explicit_euler
+                      ? ", explicit steps of " + [&] { std::ostringstream t; t << std::setprecision(3) << config.time.step; return t.str(); }() + " s"
+                      : std::string())
+              << "\n";
   const talus::RunSummary s = sim.run(&std::cout);
   if (rank == 0) {
     std::cout << std::setprecision(4) << "talus: done in " << s.wall_seconds << " s: " << s.steps << " steps, "

@@ -226,6 +226,9 @@ void write_checkpoint(const std::string& path, const Particles<dim>& particles, 
           H5Sselect_none(filespace.id);
           H5Sselect_none(memspace.id);
         }
+        // No rows on any rank (no step has set a point acceleration yet):
+        // the empty dataset is all there is; HDF5 refuses a write to it.
+        if (all == 0) return;
         const double dummy = 0.0;
         check(H5Dwrite(dset.id, type, memspace.id, filespace.id, dxpl.id, rows > 0 ? data : &dummy),
               std::string("writing ") + name);

@@ -40,6 +40,18 @@ std::string list_text(const std::vector<double>& v) {
   return s + "]";
 }
 
+// time.end / time.step must stay below time.max_steps (an overridable guard
+// against runs that would never end).
+void check_step_count(YamlSection& t, const TimeConfig& time) {
+  const double nominal_steps = time.end / time.step;
+  if (!(nominal_steps <= static_cast<double>(time.max_steps))) {
+    std::ostringstream m;
+    m << "gives end / step = " << nominal_steps << " steps, more than time.max_steps = " << time.max_steps
+      << "; raise time.max_steps to run that many";
+    t.fail_value("step", m.str());
+  }
+}
+
 // A required text that must be one of `choices`.
 std::string required_choice(YamlSection& s, const std::string& key, const std::vector<std::string>& choices) {
   const std::string v = s.text(key);
@@ -392,7 +404,17 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
   {
     YamlSection t = root.section("time");
     c.time.end = t.positive("end", t.real("end"));
-    c.time.step = t.positive("step", t.real("step"));
+    c.time.integrator =
+        t.choice("integrator", {"implicit", "explicit"}, "implicit") == "explicit" ? Integrator::explicit_euler
+                                                                                     : Integrator::implicit;
+    const bool explicit_steps = c.time.integrator == Integrator::explicit_euler;
+    if (t.has("cfl") && !explicit_steps) t.fail_value("cfl", "is a key of `integrator: explicit` only");
+    if (t.has("theta") && explicit_steps) t.fail_value("theta", "is a key of the implicit integrator only");
+    c.time.cfl = t.real("cfl", c.time.cfl);
+    if (!(c.time.cfl > 0.0 && c.time.cfl <= 1.0)) t.fail_value("cfl", "must be in (0, 1]");
+    // The explicit step may be left out: it is then chosen from the CFL
+    // condition once the materials are known (explicit_step below).
+    c.time.step = explicit_steps && !t.has("step") ? 0.0 : t.positive("step", t.real("step"));
     c.time.theta = t.real("theta", 1.0);
     if (!(c.time.theta >= 0.5 && c.time.theta <= 1.0))
       t.fail_value("theta", "must be in [0.5, 1]");
@@ -404,13 +426,7 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
     c.time.max_steps = t.integer("max_steps", TimeConfig::default_max_steps);
     if (c.time.max_steps < 1 || c.time.max_steps > 1000000000L)
       t.fail_value("max_steps", "must be in [1, 1e9]");
-    const double nominal_steps = c.time.end / c.time.step;
-    if (!(nominal_steps <= static_cast<double>(c.time.max_steps))) {
-      std::ostringstream m;
-      m << "gives end / step = " << nominal_steps << " steps, more than time.max_steps = " << c.time.max_steps
-        << "; raise time.max_steps to run that many";
-      t.fail_value("step", m.str());
-    }
+    if (c.time.step > 0) check_step_count(t, c.time);
     t.finish();
   }
   if (root.has("output")) {
@@ -465,6 +481,26 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
     mc.law = make_material(model, m);
     m.finish();
     c.materials.push_back(std::move(mc));
+  }
+
+  if (c.time.integrator == Integrator::explicit_euler) {
+    // The explicit step: at most the stability limit of the shape functions
+    // for the fastest P-wave of the case (docs/explicit.md#the-step).
+    YamlSection t = root.section("time");
+    double speed = 0.0;
+    for (const MaterialConfig& m : c.materials)
+      speed = std::max(speed, std::sqrt(m.law->elastic_stiffness()(0, 0) / m.law->density()));
+    const double limit = explicit_stable_step(c.grid.shape, c.grid.cell_size, speed, c.dim);
+    if (c.time.step == 0.0) {
+      c.time.step = c.time.cfl * limit;
+      check_step_count(t, c.time);
+    } else if (c.time.step > limit) {
+      std::ostringstream m;
+      m << std::setprecision(3) << "is above the explicit stability limit " << limit << " s (cell "
+        << c.grid.cell_size << " m, P-wave speed " << speed
+        << " m/s); use a smaller step, or leave time.step out to get time.cfl x the limit";
+      t.fail_value("step", m.str());
+    }
   }
 
   std::vector<YamlSection> body_sections = root.list("bodies");

@@ -127,7 +127,7 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
     // A = d sigma^{n+1}_ij / d L_kl = h D[ij, kl] + S[ij, :] d sigma*/d L_kl, with
     // d sigma*_ij / d L_kl = h/2 (d_ik s_lj - d_il s_kj - s_ik d_lj + s_il d_kj).
     StressTangent& A = tangent_[p];
-    for (int k = 0; k < dim; ++k)
+    for (int k = 0; k < dim && with_tangents_; ++k)
       for (int l = 0; l < dim; ++l) {
         Eigen::Matrix3d dR = Eigen::Matrix3d::Zero();
         for (int i = 0; i < 3; ++i)

@@ -1,6 +1,7 @@
 #pragma once
 // The case file, parsed and validated into typed structs (docs/case_file.md).
 #include <array>
+#include <cmath>
 #include <memory>
 #include <string>
 #include <utility>
@@ -27,9 +28,19 @@ struct GridConfig {
   double memory_limit_gb = 0;
 };
 
+// How the momentum balance is advanced (docs/explicit.md): the implicit step
+// (one monolithic semismooth Newton solve) or the explicit baseline
+// (symplectic Euler, USL, CFL-limited step).
+enum class Integrator { implicit, explicit_euler };
+
 struct TimeConfig {
   double end = 0;
   double step = 0;
+  Integrator integrator = Integrator::implicit;
+  // Explicit only: h = cfl * cell_size / c_p (the fastest P-wave speed of the
+  // case's materials) when time.step is left out; a time.step above the
+  // stability limit of the shape functions is refused.
+  double cfl = 0.5;
   double theta = 1.0;           // Moreau-Jean theta in [1/2, 1]
   double min_step_ratio = 1e-3;  // smallest cut-back step / step
   // end / step above this is an input error (an overridable guard against
@@ -37,6 +48,19 @@ struct TimeConfig {
   static constexpr long default_max_steps = 10000000;
   long max_steps = default_max_steps;
 };
+
+// The largest stable explicit step (central differences, lumped mass) for a
+// P-wave speed `speed` on cells of size `cell` (docs/explicit.md#the-step):
+// 2 / omega_max with omega_max^2 <= dim * s * speed^2 / cell^2, where s is the
+// largest eigenvalue of M_lumped^-1 K of the 1D operator in units of
+// (speed / cell)^2: 4 for linear hats; for quadratic B-splines 4/3 inside a
+// body but up to 2.75 at a free end whose last grid point catches only the
+// tail of the particles' weights (computed for 2 particles per cell, and
+// matched by the vibrating bar, which diverges at 1.2 cell / speed), so 3.
+inline double explicit_stable_step(ShapeKind shape, double cell, double speed, int dim) {
+  const double symbol = shape == ShapeKind::linear ? 4.0 : 3.0;
+  return 2.0 * cell / (speed * std::sqrt(dim * symbol));
+}
 
 struct OutputConfig {
   std::string directory = "output";

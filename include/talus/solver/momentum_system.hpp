@@ -58,6 +58,9 @@ class MomentumSystem {
   Vec initial_guess(bool last = true) const;
   double momentum_scale() const;  // sum_i m_i (|v_i^n| + h |g|), all ranks
   const ActiveSet<dim>& active() const { return active_; }
+  // The explicit step needs the stresses only: no tangents A_p (jacobian()
+  // is then unavailable).
+  void skip_tangents() { with_tangents_ = false; }
 
   // After convergence: grid velocity v^{n+1} (ghosted, constraints applied),
   // start-of-step v^n (same layout) and particle stresses sigma^{n+1}.
@@ -91,6 +94,7 @@ class MomentumSystem {
   std::vector<const Material*> materials_;
   Vector<dim> gravity_;
   double h_, theta_;
+  bool with_tangents_ = true;
 
   // Committed particle state at the start of the step (frozen during Newton).
   std::vector<Voigt> stress_old_;
