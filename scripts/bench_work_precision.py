@@ -1,0 +1,239 @@
+#!/usr/bin/python3
+"""Run time against error (issue 12, item 2): talus implicit and talus
+explicit (time.integrator: explicit, docs/explicit.md) on cases with a known
+answer, at several grids and steps; prints a table of CPU time (user + sys
+of the run) and error, and writes a log-log plot of error against CPU time.
+
+Studies (--studies):
+
+  bar     The elastic vibrating bar (docs/explicit.md#verification): a 1 m bar
+          fixed at x = 0, free at x = 1, E = 100 Pa, rho = 1, nu = 0, slip
+          walls above and below (exactly 1D), initial velocity
+          v0 sin(pi x / 2) with v0 = 1e-3 m/s (strain 1e-4, the linear
+          solution holds), given in a particle file. Error: the largest
+          |v_cm(t) - (2 v0 / pi) cos(omega t)| over one period, sampled at
+          64 outputs, relative to 2 v0 / pi; the explicit velocities are
+          compared at t - h/2 (leapfrog). Implicit: theta = 1/2 at
+          h = 0.5, 2 and 8 dx / c; explicit: cfl 0.5 of its limit.
+  column  The reference column on the mu = 0.4 floor
+          (inputs/reference_column_frictional.yaml, 1 s). Error: the
+          deposit's run-out L_99 and wall height against a reference run
+          (explicit at cfl 0.125, about 27,000 steps), |dL| + |dH| in m.
+          Implicit with theta = 1 (the default) at nominal 5e-3, 2.5e-3,
+          1.25e-3, 6.25e-4 and 1.5625e-4 s, with theta = 1/2 at 5e-3, 2.5e-3
+          and 1.25e-3 s; explicit at cfl 1, 0.5 and 0.25.
+
+One run per configuration (the errors are deterministic; the CPU times are
+single runs, so differences under about 10 % are noise). Run it alone on the
+machine. Needs Debian's python3-vtk9 and python3-matplotlib:
+
+    /usr/bin/python3 scripts/bench_work_precision.py                 # both studies, ~12 min
+    /usr/bin/python3 scripts/bench_work_precision.py --studies bar   # ~1 min
+"""
+import argparse
+import json
+import math
+import os
+import shutil
+import subprocess
+import sys
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(REPO, "scripts"))
+from bench_common import markdown_lines, table_lines  # noqa: E402
+from bench_solvers import deposit  # noqa: E402
+from pvd import pvd_series  # noqa: E402
+
+
+def run(talus, case):
+    """(CPU s of the child, its talus-summary); exits on failure."""
+    before = os.times()
+    p = subprocess.run([talus, "run", case], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    after = os.times()
+    if p.returncode != 0:
+        sys.exit(f"talus run {case} failed with exit code {p.returncode}:\n{p.stderr[-2000:]}")
+    summary = json.loads(p.stdout.split("talus-summary:", 1)[1].splitlines()[0])
+    return (after.children_user - before.children_user) + (after.children_system - before.children_system), summary
+
+
+def read_output(path, names):
+    import vtk
+    from vtk.util.numpy_support import vtk_to_numpy
+    reader = vtk.vtkXMLPUnstructuredGridReader() if path.endswith(".pvtu") else vtk.vtkXMLUnstructuredGridReader()
+    reader.SetFileName(path)
+    reader.Update()
+    data = reader.GetOutput().GetPointData()
+    return [vtk_to_numpy(data.GetArray(n)) for n in names]
+
+
+# --- the vibrating bar --------------------------------------------------------
+
+BAR_L, BAR_E, BAR_RHO, BAR_V0 = 1.0, 100.0, 1.0, 1e-3
+
+
+def bar_case(work, label, cells, integrator, h):
+    """Writes the bar's particle file and case; returns the case path."""
+    dx = BAR_L / cells
+    c = math.sqrt(BAR_E / BAR_RHO)
+    beta = math.pi / (2 * BAR_L)
+    period = 2 * math.pi / (beta * c)
+    d = os.path.join(work, label)
+    shutil.rmtree(d, ignore_errors=True)
+    os.makedirs(d)
+    spacing = dx / 2  # 2 x 2 particles per cell
+    with open(os.path.join(d, "bar.csv"), "w") as f:
+        f.write("x, y, volume, vx, vy\n")
+        for i in range(round(BAR_L / spacing)):
+            x = (i + 0.5) * spacing
+            for j in range(round(3 * dx / spacing)):
+                f.write(f"{x:.17g} {(j + 0.5) * spacing:.17g} {spacing * spacing:.17g} "
+                        f"{BAR_V0 * math.sin(beta * x):.17g} 0\n")
+    time = f"end: {period:.17g}, step: {h:.17g}" + (", integrator: explicit" if integrator == "explicit"
+                                                     else ", theta: 0.5")
+    case = os.path.join(d, "bar.yaml")
+    with open(case, "w") as f:
+        f.write(f"grid: {{lower: [0, 0], upper: [{1.25 * BAR_L:.17g}, {3 * dx:.17g}], cell_size: {dx:.17g}}}\n"
+                f"time: {{{time}}}\n"
+                f"output: {{directory: {os.path.join(d, 'out')}, interval: {period / 64:.17g}}}\n"
+                f"materials: [{{name: bar, model: linear_elastic, density: {BAR_RHO}, youngs_modulus: {BAR_E}, "
+                f"poisson_ratio: 0}}]\n"
+                f"bodies: [{{name: bar, material: bar, particles: bar.csv}}]\n"
+                f"boundaries: {{x_min: fixed, x_max: free, y_min: slip, y_max: slip}}\n")
+    return case, period
+
+
+def bar_error(case_dir, period, integrator, h):
+    c = math.sqrt(BAR_E / BAR_RHO)
+    omega = math.pi / (2 * BAR_L) * c
+    scale = 2 * BAR_V0 / math.pi
+    worst = 0.0
+    for t, path in pvd_series(os.path.join(case_dir, "out", "particles.pvd")):
+        v, m = read_output(path, ["velocity", "mass"])
+        vcm = float((v[:, 0] * m).sum() / m.sum())
+        te = t - 0.5 * h if integrator == "explicit" and t > 0 else t
+        worst = max(worst, abs(vcm - scale * math.cos(omega * te)))
+    return worst / scale
+
+
+def bar_study(talus, work):
+    rows = []
+    c = math.sqrt(BAR_E / BAR_RHO)
+    for cells in (16, 32, 64, 128):
+        dx = BAR_L / cells
+        # The explicit limit of docs/explicit.md in 2D: 2 dx / (c sqrt(2 * 3)).
+        configs = [("explicit", 0.5 * 2 * dx / (c * math.sqrt(6.0)), "explicit, cfl 0.5")]
+        configs += [("implicit", k * dx / c, f"implicit theta 1/2, h = {k:g} dx/c") for k in (0.5, 2, 8)]
+        for integrator, h, name in configs:
+            period = 2 * math.pi / (math.pi / (2 * BAR_L) * c)
+            h = period / math.ceil(period / h)  # a whole number of steps per period
+            label = f"bar_{cells}_{integrator}_{h:.3e}"
+            case, period = bar_case(work, label, cells, integrator, h)
+            cpu, s = run(talus, case)
+            err = bar_error(os.path.join(work, label), period, integrator, h)
+            rows.append({"study": "bar", "config": name, "cells": cells, "h": h, "steps": s["steps"],
+                         "newton": s["newton_iterations"], "cpu": cpu, "error": err})
+            print(f"bar {cells:4d} cells, {name:32s} h {h:.3e}: {cpu:6.2f} s, error {err:.3e}", flush=True)
+    return rows
+
+
+# --- the reference column ----------------------------------------------------
+
+def column_case(work, label, integrator, value):
+    src = os.path.join(REPO, "inputs", "reference_column_frictional.yaml")
+    with open(src) as f:
+        text = f.read()
+    out = os.path.join(work, label)
+    shutil.rmtree(out, ignore_errors=True)
+    lines = []
+    for line in text.splitlines():
+        stripped = line.strip()
+        if stripped.startswith("directory:"):
+            line = line[: line.index("directory:")] + f"directory: {out}"
+        elif stripped.startswith("step:"):
+            indent = line[: line.index("step:")]
+            line = indent + (f"step: {value[0]}\n{indent}theta: {value[1]}" if integrator == "implicit"
+                             else f"integrator: explicit\n{indent}cfl: {value}")
+        lines.append(line)
+    case = os.path.join(work, label + ".yaml")
+    with open(case, "w") as f:
+        f.write("\n".join(lines) + "\n")
+    return case, out
+
+
+def column_study(talus, work):
+    spacing = 0.005
+    case, out = column_case(work, "column_reference", "explicit", 0.125)
+    cpu, s = run(talus, case)
+    ref = deposit(os.path.join(out, "particles.pvd"), spacing)
+    print(f"column reference (explicit, cfl 0.125): {cpu:.1f} s, {s['steps']} steps, "
+          f"L_99 {ref[0]:.4f} m, wall height {ref[1]:.4f} m", flush=True)
+    rows = [{"study": "column", "config": "reference: explicit, cfl 0.125", "cells": 100, "h": 1.0 / s["steps"],
+             "steps": s["steps"], "newton": 0, "cpu": cpu, "error": float("nan"),
+             "l99": ref[0], "wall": ref[1]}]
+    configs = [("implicit", (h, 1.0), f"implicit theta 1, h = {h:g} s") for h in (0.005, 0.0025, 0.00125, 0.000625,
+                                                                               0.00015625)]
+    configs += [("implicit", (h, 0.5), f"implicit theta 1/2, h = {h:g} s") for h in (0.005, 0.0025, 0.00125)]
+    configs += [("explicit", c, f"explicit, cfl {c:g}") for c in (1.0, 0.5, 0.25)]
+    for integrator, value, name in configs:
+        label = f"column_{integrator}_{value[0]:g}_{value[1]:g}" if integrator == "implicit" else f"column_explicit_{value:g}"
+        case, out = column_case(work, label, integrator, value)
+        cpu, s = run(talus, case)
+        l99, wall = deposit(os.path.join(out, "particles.pvd"), spacing)
+        err = abs(l99 - ref[0]) + abs(wall - ref[1])
+        rows.append({"study": "column", "config": name, "cells": 100, "h": 1.0 / s["steps"], "steps": s["steps"],
+                     "newton": s["newton_iterations"], "cpu": cpu, "error": err, "l99": l99, "wall": wall})
+        print(f"column {name:28s}: {cpu:6.1f} s, {s['steps']} steps, L_99 {l99:.4f}, wall {wall:.4f}, "
+              f"error {err:.4f} m", flush=True)
+    return rows
+
+
+def plot(rows, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    studies = sorted({r["study"] for r in rows})
+    fig, axes = plt.subplots(1, len(studies), figsize=(6 * len(studies), 4.5), squeeze=False)
+    for ax, study in zip(axes[0], studies):
+        groups = {}
+        for r in rows:
+            if r["study"] == study and r["error"] == r["error"]:
+                key = r["config"] if study == "bar" else r["config"].split(", h")[0].split(", cfl")[0]
+                groups.setdefault(key, []).append(r)
+        for key, rs in sorted(groups.items()):
+            rs.sort(key=lambda r: r["cpu"])
+            ax.loglog([r["cpu"] for r in rs], [r["error"] for r in rs], "o-", label=key)
+        ax.set_xlabel("CPU time (s)")
+        ax.set_ylabel("relative error of v_cm" if study == "bar" else "|dL_99| + |dH_wall| (m)")
+        ax.set_title("vibrating bar (16-128 cells)" if study == "bar" else "reference column, mu = 0.4")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=80)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--talus", default=os.path.join(REPO, "build", "talus"))
+    ap.add_argument("--studies", nargs="+", default=["bar", "column"], choices=["bar", "column"])
+    ap.add_argument("--out", default=os.path.join(REPO, "bench_results", "work_precision"))
+    args = ap.parse_args()
+    os.makedirs(args.out, exist_ok=True)
+    rows = []
+    if "bar" in args.studies:
+        rows += bar_study(args.talus, args.out)
+    if "column" in args.studies:
+        rows += column_study(args.talus, args.out)
+    columns = [("study", "study", "{}"), ("config", "configuration", "{}"), ("cells", "cells", "{}"),
+               ("h", "h s", "{:.3e}"), ("steps", "steps", "{}"), ("newton", "Newton", "{}"),
+               ("cpu", "CPU s", "{:.2f}"), ("error", "error", "{:.3e}")]
+    print()
+    print("\n".join(table_lines(rows, columns)))
+    print()
+    print("\n".join(markdown_lines(rows, columns, text_columns=2)))
+    png = os.path.join(args.out, "work_precision.png")
+    plot(rows, png)
+    print(f"\nplot: {png}")
+
+
+if __name__ == "__main__":
+    main()
