@@ -144,7 +144,14 @@ void Simulation<dim>::repartition(const Ownership<dim>& ownership) {
 
 template <int dim>
 StepReport Simulation<dim>::advance(double h) {
+  if (std::isnan(initial_energy_)) {
+    // The energy balance starts from the particles as they are now (t = 0,
+    // or a state set by a test); a restart brings its own.
+    particle_energy_ = particle_energy();
+    initial_energy_ = particle_energy_.total();
+  }
   if (config_.time.integrator == Integrator::explicit_euler) return advance_explicit(h);
+  const double kinetic_start = local_particle_kinetic();
   StepReport report;
   report.h = h;
   const auto t0 = std::chrono::steady_clock::now();
@@ -198,6 +205,8 @@ StepReport Simulation<dim>::advance(double h) {
   record_contact_forces(system.contacts(), system.contact_impulses(), system.contact_maps(), h);
   if (grid_output()) record_grid_points(fields, system.end_velocity(), &system, h);
   report.transfer_seconds += complete_step(system, stencils, fields, h, config_.time.theta);
+  account_energy(system.step_energy(config_.time.theta, config_.time.theta, system.contacts(), system.contact_impulses()),
+                 kinetic_start);
   report.converged = true;
   return report;
 }
@@ -438,6 +447,12 @@ void Simulation<dim>::restart(const std::string& checkpoint_path) {
     rebalances_ = 0;
   }
   restore_last_acceleration(*resume_);
+  // The energy balance goes on from the checkpoint's sums.
+  initial_energy_ = resume_->initial_energy;
+  const auto& t = resume_->energy_terms;
+  energy_.plastic = t[0], energy_.contact = t[1], energy_.obstacle_work = t[2];
+  energy_.faces = t[3], energy_.transfer = t[4], energy_.time_integration = t[5];
+  particle_energy_ = particle_energy();
 }
 
 template <int dim>
@@ -534,6 +549,18 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
     ++summary.outputs;
   };
   const std::string forces_path = config_.output.directory + "/obstacle_forces.csv";
+  // The energy balance at every step (docs/energy.md).
+  std::unique_ptr<ObstacleForceTable> energy_table;
+  const std::string energy_path = config_.output.directory + "/energy.csv";
+  std::vector<std::string> energy_columns{"kinetic", "gravitational", "elastic"};
+  for (const char* name : EnergyTerms::names()) energy_columns.push_back(name);
+  energy_columns.push_back("balance_error");
+  const auto energy_row = [&] {
+    std::vector<double> row{particle_energy_.kinetic, particle_energy_.gravitational, particle_energy_.elastic};
+    for (double v : energy_.values()) row.push_back(v);
+    row.push_back(energy_balance_error());
+    return row;
+  };
   if (resume_) {
     summary.steps = resume_->steps;
     summary.cutbacks = resume_->cutbacks;
@@ -547,9 +574,22 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
     std::string note;
     if (obstacle_output)
       forces = std::make_unique<ObstacleForceTable>(comm_, forces_path, force_columns(), time_, &note);
+    if (vtk) {
+      std::string energy_note;
+      energy_table = std::make_unique<ObstacleForceTable>(comm_, energy_path, energy_columns, time_, &energy_note);
+      if (note.empty()) note = energy_note;
+    }
     if (progress && rank == 0 && !note.empty()) *progress << "  " << note << "\n";
   } else {
     if (obstacle_output) forces = std::make_unique<ObstacleForceTable>(comm_, forces_path, force_columns());
+    if (vtk) {
+      if (std::isnan(initial_energy_)) {
+        particle_energy_ = particle_energy();
+        initial_energy_ = particle_energy_.total();
+      }
+      energy_table = std::make_unique<ObstacleForceTable>(comm_, energy_path, energy_columns);
+      guarded("appending to energy.csv", [&] { energy_table->append(time_, energy_row()); });
+    }
     if (grid_vtk) record_initial_grid_points();  // t = 0: the P2G state
     if (vtk) write_output();
   }
@@ -567,6 +607,8 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
     if (vtk) state.outputs = vtk->entries();
     for (const auto& axis : grid_->ownership()) state.grid_ownership.push_back(axis);
     store_last_acceleration(state);
+    state.initial_energy = initial_energy_;
+    state.energy_terms = energy_.values();
     state.fingerprint = config_.fingerprint;
     std::filesystem::create_directories(config_.checkpoint.directory);
     char name[64];
@@ -637,6 +679,7 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
     summary.max_unbalance = std::max(summary.max_unbalance, r.newton.unbalance);
     control.succeeded(r.newton.iterations);
     if (forces) guarded("appending to obstacle_forces.csv", [&] { forces->append(time_, force_row()); });
+    if (energy_table) guarded("appending to energy.csv", [&] { energy_table->append(time_, energy_row()); });
     const bool due = time_ >= next_output - eps || time_ >= tc.end - eps;
     if (vtk && due) {
       write_output();
@@ -669,6 +712,7 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
     MPI_Allreduce(&signal_here, &signal_any, 1, MPI_INT, MPI_MAX, comm_);
     if (signal_any) {
       summary.interrupted_by = signal_any;
+      summary.energy_balance_error = energy_balance_error();
       if (config_.checkpoint.enabled) checkpoint();
       summary.wall_seconds = seconds_since(start);
       summary.rebalances = rebalances_ - rebalances_at_start;
@@ -683,6 +727,7 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
   summary.wall_seconds = seconds_since(start);
   summary.rebalances = rebalances_ - rebalances_at_start;
   summary.final_load = rank_load(comm_, particles_->local_count());
+  summary.energy_balance_error = energy_balance_error();
   return summary;
 }
 

@@ -54,6 +54,7 @@ template <int dim>
 StepReport Simulation<dim>::advance_explicit(double h) {
   StepReport report;
   report.h = h;
+  const double kinetic_start = local_particle_kinetic();
   const auto t0 = std::chrono::steady_clock::now();
   // 1. Stencils at x^n and 2. P2G: m_i and v_i^n.
   std::vector<Stencil<dim>> stencils;
@@ -141,6 +142,9 @@ StepReport Simulation<dim>::advance_explicit(double h) {
   // 7. G2P with theta = 1 (x^{n+1} = x^n + h v^{n+1}: symplectic Euler) and
   // 8. the commit of sigma^{n+1}.
   report.transfer_seconds += complete_step(system, stencils, fields, h, 1.0);
+  // The force used sigma^n (weight 0 of sigma^{n+1}), the strain and the
+  // motion v^{n+1} (weight 1): docs/energy.md.
+  account_energy(system.step_energy(0.0, 1.0, contacts, impulses), kinetic_start);
   report.converged = true;
   return report;
 }

@@ -82,6 +82,15 @@ void restart_repeats_the_run(const std::string& time, const std::string& label) 
     INFO(name << ": largest difference " << d);
     CHECK(d <= (testing::comm_size(PETSC_COMM_WORLD) == 1 ? 1e-12 : 1e-6));
   }
+  // The energy balance goes on from the checkpoint's sums (docs/energy.md).
+  CHECK(second.initial_energy() == whole.initial_energy());
+  const auto a = whole.energy_terms().values(), b = second.energy_terms().values();
+  for (int k = 0; k < EnergyTerms::count; ++k) {
+    INFO(EnergyTerms::names()[k] << ": " << a[k] << " against " << b[k]);
+    CHECK(std::abs(a[k] - b[k]) <= (testing::comm_size(PETSC_COMM_WORLD) == 1 ? 1e-12 : 1e-6) *
+                                       std::max(1.0, std::abs(whole.initial_energy())));
+  }
+  CHECK(std::abs(second.energy_balance_error()) < 1e-6 * std::abs(whole.initial_energy()));
   // The column has collapsed enough for the comparison to mean something.
   const auto eps_p = testing::gather_by_id(whole.particles(), field::cumulative_plastic_strain, 1);
   CHECK(*std::max_element(eps_p.begin(), eps_p.end()) > 0.05);

@@ -1,6 +1,7 @@
 #pragma once
 // One run of a case: the particles, the grid, and the implicit time step.
 #include <iosfwd>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -33,6 +34,7 @@ struct RunSummary {
   double contact_seconds = 0;     // part of solve_seconds: candidates + contact rows
   long contact_points = 0;        // summed over the accepted steps
   double max_unbalance = 0;       // largest U of an accepted step (docs/solver.md#convergence)
+  double energy_balance_error = 0;  // J: K + G + E + the dissipated terms - (K0 + G0 + E0) (docs/energy.md)
   long structure_builds = 0;      // steps whose matrix and preconditioner structure was built anew
   long direct_fallbacks = 0;      // steps solved again by LU after a failed linear solve
   long factorizations = 0;        // numeric LU factorizations with reused factors (docs/solver.md#reused-factorizations)
@@ -72,6 +74,13 @@ class Simulation {
   // particles per rank after the call.
   bool balance_ranks(bool always, RankLoad* load = nullptr);
   long rebalances() const { return rebalances_; }
+  // The energy balance (docs/energy.md): the terms summed since t = 0, the
+  // particles' energies after the last step, K0 + G0 + E0, and the closing
+  // error K + G + E + sum of the terms - (K0 + G0 + E0).
+  const EnergyTerms& energy_terms() const { return energy_; }
+  const ParticleEnergy& energies() const { return particle_energy_; }
+  double initial_energy() const { return initial_energy_; }
+  double energy_balance_error() const;
 
   double time() const { return time_; }
   const Grid<dim>& grid() const { return *grid_; }
@@ -111,6 +120,13 @@ class Simulation {
   // (obstacle_force_) and per point (nodal_contacts_).
   void record_contact_forces(const std::vector<ContactPoint<dim>>& contacts, const std::vector<Vector<dim>>& impulses,
                              const std::vector<NaturalMap<dim>>& maps, double h);
+  // This rank's (1/2) sum m_p |v_p|^2, and the particles' K, G, E summed over ranks.
+  double local_particle_kinetic() const;
+  ParticleEnergy local_particle_energy() const;  // this rank's K, G, E
+  ParticleEnergy particle_energy() const;
+  // Adds a finished step's energy terms (this rank's share, with the
+  // particles' kinetic energy before P2G) to energy_; collective.
+  void account_energy(const StepEnergy& step, double kinetic_start);
   // One explicit step (time.integrator: explicit; src/simulation_explicit.cpp).
   StepReport advance_explicit(double h);
   // G2P, the commit of the stresses and state of `system`, NaN check and
@@ -149,6 +165,12 @@ class Simulation {
   // step's acceleration at this rank's owned active points (ghosted layout,
   // NaN elsewhere; empty before the first step and after a re-partition).
   std::vector<double> last_acceleration_;
+  // The energy balance (docs/energy.md): K0 + G0 + E0 (NaN until the first
+  // step or a restart sets it), the terms summed since t = 0, and the
+  // particles' energies after the last step.
+  double initial_energy_ = std::numeric_limits<double>::quiet_NaN();
+  EnergyTerms energy_;
+  ParticleEnergy particle_energy_;
   PetscInt last_system_size_ = 0;
   long rebalances_ = 0;
 };

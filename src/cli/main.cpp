@@ -76,7 +76,7 @@ int run_case(const talus::CaseConfig& config, const std::string& restart, int ra
               << ", \"linear_iterations\": " << s.linear_iterations << ", \"wall_seconds\": " << s.wall_seconds
               << ", \"transfer_seconds\": " << s.transfer_seconds << ", \"solve_seconds\": " << s.solve_seconds
               << ", \"contact_seconds\": " << s.contact_seconds << ", \"contact_points\": " << s.contact_points
-              << ", \"max_unbalance\": " << s.max_unbalance << ", \"structure_builds\": " << s.structure_builds
+              << ", \"max_unbalance\": " << s.max_unbalance << ", \"energy_balance_error\": " << s.energy_balance_error << ", \"structure_builds\": " << s.structure_builds
               << ", \"direct_fallbacks\": " << s.direct_fallbacks << ", \"factorizations\": " << s.factorizations
               << ", \"ranks\": " << s.final_load.ranks << ", \"rebalances\": " << s.rebalances
               << ", \"worst_imbalance\": " << s.worst_imbalance << ", \"final_min_rank_particles\": "

@@ -91,7 +91,7 @@ void write_text_attribute(hid_t location, const char* name, const std::string& t
 // 3: the case fingerprint of grid, gravity, boundaries, contact and
 // transfer from their parsed values (2026-11-25); 2: all sections as YAML
 // text, the same day; 1 (no attribute): before, without a fingerprint.
-constexpr int checkpoint_format = 3;
+constexpr int checkpoint_format = 4;  // 4: the energy balance (2026-11-25)
 
 // A damaged checkpoint: what is wrong with it, for "not a valid talus checkpoint: <what>".
 struct Damaged : std::runtime_error {
@@ -256,6 +256,10 @@ void write_checkpoint(const std::string& path, const Particles<dim>& particles, 
       ownership << '\n';
     }
     write_text_attribute(run.id, "grid_ownership", ownership.str());
+    write_attribute(run.id, "energy_initial", H5T_NATIVE_DOUBLE, state.initial_energy);
+    for (int k = 0; k < EnergyTerms::count; ++k)
+      write_attribute(run.id, (std::string("energy_") + EnergyTerms::names()[k]).c_str(), H5T_NATIVE_DOUBLE,
+                      state.energy_terms[k]);
     write_attribute(run.id, "checkpoint_format", H5T_NATIVE_INT, checkpoint_format);
     write_text_attribute(run.id, "talus_version", TALUS_VERSION);
     for (const auto& [section, text] : state.fingerprint)
@@ -319,6 +323,10 @@ RunState read_state(const std::string& path, hid_t file_id, int dim) {
   state.calm = read_attribute<long>(run.id, "steps_since_cutback", H5T_NATIVE_LONG);
   state.since_growth = read_attribute<long>(run.id, "steps_since_growth", H5T_NATIVE_LONG);
   state.next_output = read_attribute<double>(run.id, "next_output", H5T_NATIVE_DOUBLE);
+  state.initial_energy = read_attribute<double>(run.id, "energy_initial", H5T_NATIVE_DOUBLE);
+  for (int k = 0; k < EnergyTerms::count; ++k)
+    state.energy_terms[k] =
+        read_attribute<double>(run.id, (std::string("energy_") + EnergyTerms::names()[k]).c_str(), H5T_NATIVE_DOUBLE);
   {
     std::istringstream in(read_text_attribute(run.id, "outputs"));
     double t;
@@ -343,6 +351,10 @@ RunState read_state(const std::string& path, hid_t file_id, int dim) {
   if (!(std::isfinite(state.time) && state.time >= 0)) fail("time = " + number_text(state.time));
   if (state.steps < 0 || state.cutbacks < 0) fail("a negative step or cut-back count");
   if (!(std::isfinite(state.step_size) && state.step_size > 0)) fail("step_size = " + number_text(state.step_size));
+  if (!std::isfinite(state.initial_energy)) fail("energy_initial = " + number_text(state.initial_energy));
+  for (int k = 0; k < EnergyTerms::count; ++k)
+    if (!std::isfinite(state.energy_terms[k]))
+      fail(std::string("energy_") + EnergyTerms::names()[k] + " = " + number_text(state.energy_terms[k]));
   if (state.patience < 0 || state.calm < 0 || state.since_growth < 0) fail("a negative step-controller count");
   if (!(std::isfinite(state.next_output) && state.next_output >= state.time))
     fail("next_output = " + number_text(state.next_output) + " (time " + number_text(state.time) + ")");

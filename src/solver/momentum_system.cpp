@@ -39,6 +39,8 @@ MomentumSystem<dim>::MomentumSystem(const Grid<dim>& grid, const Particles<dim>&
   reference_volume_.resize(np);
   separation_old_.assign(separation.data(), separation.data() + np);
   separation_end_ = separation_old_;
+  closed_voids_.assign(np, 0.0);
+  rotated_stress_ = stress_old_;
   material_.resize(np);
   for (PetscInt p = 0; p < np; ++p) {
     stress_old_[p] = Eigen::Map<const Voigt>(s.data() + 6 * p);
@@ -116,6 +118,8 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
     materials_[material_[p]]->update(rotated, strain, state_old_.data() + max_state_size * p,
                                      state_end_.data() + max_state_size * p, update);
     separation_end_[p] = separation_old_[p] + closed + update.separation_strain_increment;
+    closed_voids_[p] = closed;
+    rotated_stress_[p] = rotated;
     if (closing && !closes_fully) {
       // d(strain seen)/d(strain) = I - (1/3) 1 1^T on the volumetric part.
       const Voigt volumetric_column = update.tangent.leftCols<3>().rowwise().sum() / 3.0;
@@ -524,6 +528,59 @@ void MomentumSystem<dim>::finish(Vec v) {
     residual(v, F);
     TALUS_PETSC(VecDestroy(&F));
   }
+}
+
+template <int dim>
+StepEnergy MomentumSystem<dim>::step_energy(double stress_weight, double velocity_weight,
+                                            const std::vector<ContactPoint<dim>>& contacts,
+                                            const std::vector<Vector<dim>>& impulses) const {
+  StepEnergy e;
+  // Grid: m (v^{n+1} - v^n) . v^w = (1/2) m (|v^{n+1}|^2 - |v^n|^2) + (w - 1/2) m |dv|^2
+  // on every free component; a constrained component loses (1/2) m (v^n)^2
+  // of the P2G velocity at once (its row is m v = 0).
+  for (const int i : active_.owned_points()) {
+    const double m = fields_.mass[i];
+    for (int c = 0; c < dim; ++c) {
+      const std::size_t k = static_cast<std::size_t>(dim) * i + c;
+      if (active_.constrained(i, c)) {
+        e.terms.faces += 0.5 * m * fields_.velocity[k] * fields_.velocity[k];
+        continue;
+      }
+      const double v0 = velocity_old_[k], v1 = velocity_[k];
+      e.grid_kinetic_start += 0.5 * m * v0 * v0;
+      e.grid_kinetic_end += 0.5 * m * v1 * v1;
+      e.terms.time_integration += (velocity_weight - 0.5) * m * (v1 - v0) * (v1 - v0);
+    }
+  }
+  // Particles: V0 tau^w : d eps = dE + (w - 1/2) V0 d tau : C^-1 : d tau
+  // + V0 tau^w : (d eps_p + d(closed voids) I / 3) - V0 tau^w : C^-1 : (sigma* - sigma^n)
+  // (the last: the Jaumann rotation, work-free to first order only).
+  std::vector<Tangent> compliance(materials_.size());
+  for (std::size_t m = 0; m < materials_.size(); ++m) compliance[m] = materials_[m]->elastic_stiffness().inverse();
+  for (std::size_t p = 0; p < stress_end_.size(); ++p) {
+    const Voigt dtau = stress_end_[p] - stress_old_[p];
+    const Voigt tau_w = (1.0 - stress_weight) * stress_old_[p] + stress_weight * stress_end_[p];
+    const double V0 = reference_volume_[p];
+    const Tangent& S = compliance[material_[p]];
+    // The Jaumann rotation sigma* - sigma^n is work-free only to first
+    // order: its second-order work counts with the time integration.
+    e.terms.time_integration += (stress_weight - 0.5) * V0 * dtau.dot(S * dtau) +
+                                V0 * tau_w.dot(S * (stress_old_[p] - rotated_stress_[p]));
+    // The return mapping's inelastic strain C^-1 (trial - sigma) includes the
+    // voids it opens; the voids closed before the material saw the strain
+    // are the strain's other inelastic part.
+    e.terms.plastic += V0 * (tau_w.dot(plastic_increment_[p]) + tau_w.head<3>().sum() / 3.0 * closed_voids_[p]);
+  }
+  // Contact points: the impulse r the obstacle gives works on v^w.
+  for (std::size_t c = 0; c < contacts.size(); ++c) {
+    const int i = contacts[c].point;
+    Vector<dim> v;
+    for (int a = 0; a < dim; ++a)
+      v[a] = (1.0 - velocity_weight) * velocity_old_[dim * i + a] + velocity_weight * velocity_[dim * i + a];
+    e.terms.contact -= impulses[c].dot(v - contacts[c].obstacle_velocity);
+    e.terms.obstacle_work += impulses[c].dot(contacts[c].obstacle_velocity);
+  }
+  return e;
 }
 
 template class MomentumSystem<2>;

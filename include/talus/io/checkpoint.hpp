@@ -12,7 +12,10 @@
 // repeats the uninterrupted one bit for bit; on several ranks to the solver
 // tolerance (the parallel reductions already make two uninterrupted runs
 // differ in the last bits; docs/checkpoints.md#restart).
+#include <array>
 #include <string>
+
+#include "talus/solver/energy_balance.hpp"
 #include <utility>
 #include <vector>
 
@@ -45,6 +48,10 @@ struct RunState {
   // talus that wrote it: a restart refuses a checkpoint of another case.
   CaseFingerprint fingerprint;
   std::string talus_version;
+  // The energy balance (docs/energy.md): K0 + G0 + E0 and the terms summed
+  // since t = 0, in EnergyTerms::names() order.
+  double initial_energy = 0.0;
+  std::array<double, EnergyTerms::count> energy_terms{};
 };
 
 // What a restart checks the checkpoint's particles against: this case's

@@ -30,6 +30,7 @@
 #include "talus/contact/contact_set.hpp"
 #include "talus/materials/material.hpp"
 #include "talus/solver/active_set.hpp"
+#include "talus/solver/energy_balance.hpp"
 
 namespace talus {
 
@@ -75,6 +76,14 @@ class MomentumSystem {
   // regions (sticking = inside, sliding = boundary, separating = polar).
   const std::vector<ContactPoint<dim>>& contacts() const { return contacts_; }
   const std::vector<Vector<dim>>& contact_impulses() const { return contact_impulse_; }
+  // After finish(): this rank's share of the step's energy terms
+  // (energy_balance.hpp, docs/energy.md). stress_weight: the weight of
+  // sigma^{n+1} in the internal force (theta; 0 for the explicit step);
+  // velocity_weight: that of v^{n+1} in the strain and the motion (theta; 1
+  // explicit). `contacts` and their impulses r_i: the system's own or the
+  // explicit step's.
+  StepEnergy step_energy(double stress_weight, double velocity_weight, const std::vector<ContactPoint<dim>>& contacts,
+                         const std::vector<Vector<dim>>& impulses) const;
   const std::vector<NaturalMap<dim>>& contact_maps() const { return contact_map_; }
   double contact_seconds() const { return contact_seconds_; }  // time spent in the contact rows
 
@@ -107,6 +116,8 @@ class MomentumSystem {
   std::vector<double> velocity_, velocity_old_, force_;
   std::vector<Voigt> stress_end_, plastic_increment_;
   std::vector<double> state_end_, separation_end_;
+  std::vector<double> closed_voids_;  // volumetric strain of the voids closed this step (<= 0)
+  std::vector<Voigt> rotated_stress_;  // sigma* (the Jaumann-rotated start stress) of the last evaluation
   std::vector<StressTangent> tangent_;
   // Jacobian assembly buffers (kept between Jacobians): the slot of each
   // ghosted point, the points of the slots, their block rows.
