@@ -340,10 +340,11 @@ void Simulation<dim>::keep_particles_inside() {
   const double margin = 1e-9 * grid_->cell_size();
   long escaped = 0;
   {
-    FieldView<PetscReal> x(particles_->swarm(), field::position);
+    FieldView<PetscReal> x(particles_->swarm(), field::position), m(particles_->swarm(), field::mass);
     for (PetscInt p = 0; p < particles_->local_count(); ++p)
       for (int a = 0; a < dim; ++a) {
         double& xa = x[dim * p + a];
+        const double before = xa;
         const double lo = grid_->lower()[a] + margin, hi = grid_->upper()[a] - margin;
         if (xa < lo) {
           if (config_.faces[2 * a] == FaceCondition::free && xa < grid_->lower()[a]) ++escaped;
@@ -352,6 +353,9 @@ void Simulation<dim>::keep_particles_inside() {
           if (config_.faces[2 * a + 1] == FaceCondition::free && xa > grid_->upper()[a]) ++escaped;
           xa = hi;
         }
+        // The energy balance: the gravitational energy the correction adds
+        // (docs/energy.md, correction_work).
+        correction_work_ -= m[p] * gravity_[a] * (xa - before);
       }
   }
   long total = 0;
@@ -451,7 +455,7 @@ void Simulation<dim>::restart(const std::string& checkpoint_path) {
   initial_energy_ = resume_->initial_energy;
   const auto& t = resume_->energy_terms;
   energy_.plastic = t[0], energy_.contact = t[1], energy_.obstacle_work = t[2];
-  energy_.faces = t[3], energy_.transfer = t[4], energy_.time_integration = t[5];
+  energy_.faces = t[3], energy_.transfer = t[4], energy_.time_integration = t[5], energy_.correction_work = t[6];
   particle_energy_ = particle_energy();
 }
 

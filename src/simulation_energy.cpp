@@ -50,7 +50,10 @@ void Simulation<dim>::account_energy(const StepEnergy& step, double kinetic_star
   // One reduction: the step's terms, the grid's kinetic energies, and the
   // particles' energies after G2P.
   const ParticleEnergy after = local_particle_energy();
-  const auto terms = step.terms.values();
+  EnergyTerms step_terms = step.terms;
+  step_terms.correction_work = correction_work_;  // from keep_particles_inside, this step
+  correction_work_ = 0.0;
+  const auto terms = step_terms.values();
   constexpr int n = EnergyTerms::count + 6;
   double local[n], total[n];
   for (int k = 0; k < EnergyTerms::count; ++k) local[k] = terms[k];
@@ -64,6 +67,7 @@ void Simulation<dim>::account_energy(const StepEnergy& step, double kinetic_star
   added.obstacle_work = total[2];
   added.faces = total[3];
   added.time_integration = total[5];
+  added.correction_work = total[6];
   const double* k = total + EnergyTerms::count;
   // P2G keeps (grid start + faces) of the particles' kinetic energy; G2P
   // turns the grid's end energy into the particles' (docs/energy.md).
@@ -74,10 +78,8 @@ void Simulation<dim>::account_energy(const StepEnergy& step, double kinetic_star
 
 template <int dim>
 double Simulation<dim>::energy_balance_error() const {
-  const auto t = energy_.values();
-  // W_obstacles is work done on the body: it enters with a minus sign.
-  const double sum = t[0] + t[1] - t[2] + t[3] + t[4] + t[5];
-  return particle_energy_.total() + sum - initial_energy_;
+  // Obstacle and correction work are done on the body: they enter with a minus sign.
+  return particle_energy_.total() + energy_.dissipated() - initial_energy_;
 }
 
 template double Simulation<2>::local_particle_kinetic() const;
