@@ -14,7 +14,7 @@ the grid points with little mass at the edge of a body. The runs are a
 seeded random sample of the full grid of combinations (--runs, default 120;
 --seed), so repeated sweeps look at other corners.
 
-    /usr/bin/python3 scripts/sweep_stability.py                    # ~120 runs, about 10 minutes
+    /usr/bin/python3 scripts/sweep_stability.py                    # 140 runs, about 5 minutes
     /usr/bin/python3 scripts/sweep_stability.py --runs 20 --seed 3
 
 A run that ends with exit code 0 and a closing error below 1e-6 of the
