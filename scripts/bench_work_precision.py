@@ -23,12 +23,22 @@ Studies (--studies):
           1.25e-3, 6.25e-4 and 1.5625e-4 s, with theta = 1/2 at 5e-3, 2.5e-3
           and 1.25e-3 s; explicit at cfl 1, 0.5 and 0.25.
 
+  settle  An elastic column settling under its own weight between slip walls
+          on a fixed floor (0.5 m wide, 1 m high, E = 1 MPa, nu = 0.3,
+          rho = 2000; uniaxial strain, so the exact Cauchy stress is
+          sigma_yy = -rho g (H - Y) in the original height Y). Error: the RMS
+          of sigma_yy - exact over the particles at t = 2 s, relative to
+          rho g H. Implicit theta = 1 with 4, 8 and 32 steps; explicit at cfl 0.5
+          (it has no damping: the column keeps ringing); cells 0.1, 0.05, 0.025 m.
+          The case where a quasi-static answer is wanted.
+
 One run per configuration (the errors are deterministic; the CPU times are
 single runs, so differences under about 10 % are noise). Run it alone on the
 machine. Needs Debian's python3-vtk9 and python3-matplotlib:
 
-    /usr/bin/python3 scripts/bench_work_precision.py                 # both studies, ~12 min
+    /usr/bin/python3 scripts/bench_work_precision.py                 # all three studies, ~12 min
     /usr/bin/python3 scripts/bench_work_precision.py --studies bar   # ~1 min
+    /usr/bin/python3 scripts/bench_work_precision.py --studies settle # ~1 min
 """
 import argparse
 import json
@@ -187,6 +197,61 @@ def column_study(talus, work):
     return rows
 
 
+# --- the settling elastic column --------------------------------------------
+
+SETTLE_H, SETTLE_RHO, SETTLE_G, SETTLE_END = 1.0, 2000.0, 9.81, 2.0
+
+
+def settle_case(work, label, cell, integrator, steps):
+    out = os.path.join(work, label)
+    shutil.rmtree(out, ignore_errors=True)
+    time = (f"{{end: {SETTLE_END}, step: {SETTLE_END / steps:.17g}}}" if integrator == "implicit"
+            else f"{{end: {SETTLE_END}, integrator: explicit}}")
+    case = os.path.join(work, label + ".yaml")
+    with open(case, "w") as f:
+        f.write(f"grid: {{lower: [0, 0], upper: [0.5, {2 * SETTLE_H}], cell_size: {cell}}}\n"
+                f"time: {time}\n"
+                f"output: {{directory: {out}, interval: {SETTLE_END}}}\n"
+                f"gravity: [0, -{SETTLE_G}]\n"
+                f"materials: [{{name: soil, model: linear_elastic, density: {SETTLE_RHO}, youngs_modulus: 1.0e6, "
+                f"poisson_ratio: 0.3}}]\n"
+                f"bodies: [{{name: column, material: soil, box: {{lower: [0, 0], upper: [0.5, {SETTLE_H}]}}}}]\n"
+                f"boundaries: {{x_min: slip, x_max: slip, y_min: fixed, y_max: slip}}\n")
+    return case, out
+
+
+def settle_error(out):
+    import numpy as np
+    _, path = pvd_series(os.path.join(out, "particles.pvd"))[-1]
+    import vtk
+    from vtk.util.numpy_support import vtk_to_numpy
+    reader = vtk.vtkXMLPUnstructuredGridReader() if path.endswith(".pvtu") else vtk.vtkXMLUnstructuredGridReader()
+    reader.SetFileName(path)
+    reader.Update()
+    grid = reader.GetOutput()
+    x = vtk_to_numpy(grid.GetPoints().GetData())
+    u = vtk_to_numpy(grid.GetPointData().GetArray("displacement"))
+    stress = vtk_to_numpy(grid.GetPointData().GetArray("stress"))  # xx, yy, zz, xy, yz, xz (Cauchy)
+    Y = x[:, 1] - u[:, 1]
+    exact = -SETTLE_RHO * SETTLE_G * (SETTLE_H - Y)
+    return float(np.sqrt(np.mean((stress[:, 1] - exact) ** 2))) / (SETTLE_RHO * SETTLE_G * SETTLE_H)
+
+
+def settle_study(talus, work):
+    rows = []
+    for cell in (0.1, 0.05, 0.025):
+        for integrator, steps in (("implicit", 4), ("implicit", 8), ("implicit", 32), ("explicit", None)):
+            name = f"implicit theta 1, {steps} steps" if integrator == "implicit" else "explicit, cfl 0.5"
+            label = f"settle_{cell:g}_{integrator}_{steps}"
+            case, out = settle_case(work, label, cell, integrator, steps)
+            cpu, s = run(talus, case)
+            err = settle_error(out)
+            rows.append({"study": "settle", "config": name, "cells": round(SETTLE_H / cell), "h": SETTLE_END / s["steps"],
+                         "steps": s["steps"], "newton": s["newton_iterations"], "cpu": cpu, "error": err})
+            print(f"settle cell {cell:g} {name:28s}: {cpu:6.2f} s, {s['steps']} steps, error {err:.3e}", flush=True)
+    return rows
+
+
 def plot(rows, path):
     import matplotlib
     matplotlib.use("Agg")
@@ -197,14 +262,16 @@ def plot(rows, path):
         groups = {}
         for r in rows:
             if r["study"] == study and r["error"] == r["error"]:
-                key = r["config"] if study == "bar" else r["config"].split(", h")[0].split(", cfl")[0]
+                key = r["config"] if study in ("bar", "settle") else r["config"].split(", h")[0].split(", cfl")[0]
                 groups.setdefault(key, []).append(r)
         for key, rs in sorted(groups.items()):
             rs.sort(key=lambda r: r["cpu"])
             ax.loglog([r["cpu"] for r in rs], [r["error"] for r in rs], "o-", label=key)
         ax.set_xlabel("CPU time (s)")
-        ax.set_ylabel("relative error of v_cm" if study == "bar" else "|dL_99| + |dH_wall| (m)")
-        ax.set_title("vibrating bar (16-128 cells)" if study == "bar" else "reference column, mu = 0.4")
+        ax.set_ylabel({"bar": "relative error of v_cm", "column": "|dL_99| + |dH_wall| (m)",
+                       "settle": "RMS sigma_yy error / (rho g H)"}[study])
+        ax.set_title({"bar": "vibrating bar (16-128 cells)", "column": "reference column, mu = 0.4",
+                      "settle": "elastic column settling, 10-40 cells high, t = 2 s"}[study])
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=8)
     fig.tight_layout()
@@ -214,13 +281,15 @@ def plot(rows, path):
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--talus", default=os.path.join(REPO, "build", "talus"))
-    ap.add_argument("--studies", nargs="+", default=["bar", "column"], choices=["bar", "column"])
+    ap.add_argument("--studies", nargs="+", default=["bar", "settle", "column"], choices=["bar", "settle", "column"])
     ap.add_argument("--out", default=os.path.join(REPO, "bench_results", "work_precision"))
     args = ap.parse_args()
     os.makedirs(args.out, exist_ok=True)
     rows = []
     if "bar" in args.studies:
         rows += bar_study(args.talus, args.out)
+    if "settle" in args.studies:
+        rows += settle_study(args.talus, args.out)
     if "column" in args.studies:
         rows += column_study(args.talus, args.out)
     columns = [("study", "study", "{}"), ("config", "configuration", "{}"), ("cells", "cells", "{}"),
