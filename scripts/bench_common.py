@@ -1,8 +1,11 @@
 """Helpers shared by the benchmark scripts: table formatting and machine load.
 
 A table is described by `columns`, a list of (key, header, format spec)."""
+import json
 import math
 import os
+import subprocess
+import sys
 
 
 def machine_busy_seconds():
@@ -44,3 +47,15 @@ def markdown_lines(rows, columns, text_columns=1):
     for r in rows:
         lines.append("| " + " | ".join(fmt(r.get(k), f) for k, _, f in columns) + " |")
     return lines
+
+
+def run_talus_case(talus, case):
+    """`talus run case`: (user + sys CPU seconds of the child, its talus-summary
+    as a dict); exits with the run's stderr if it fails."""
+    before = os.times()
+    p = subprocess.run([talus, "run", case], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    after = os.times()
+    if p.returncode != 0:
+        sys.exit(f"talus run {case} failed with exit code {p.returncode}:\n{p.stderr[-2000:]}")
+    summary = json.loads(p.stdout.split("talus-summary:", 1)[1].splitlines()[0])
+    return (after.children_user - before.children_user) + (after.children_system - before.children_system), summary

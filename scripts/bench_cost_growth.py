@@ -21,15 +21,12 @@ The figures are per step, and per particle and Newton iteration (issue 11's
     /usr/bin/python3 scripts/bench_cost_growth.py --dims 2 --max 2e5
 """
 import argparse
-import json
 import os
-import shutil
-import subprocess
 import sys
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(REPO, "scripts"))
-from bench_common import markdown_lines, table_lines  # noqa: E402
+from bench_common import markdown_lines, run_talus_case, table_lines  # noqa: E402
 
 
 def case_text(dim, cell, integrator, out):
@@ -55,17 +52,6 @@ def case_text(dim, cell, integrator, out):
 
 
 IMPLICIT_STEP = 2.5e-3  # the reference column's step at every size: the same physical loading
-
-
-def run(talus, case, steps):
-    """Runs `steps` steps (time.end cut to that many nominal steps); (CPU s, summary)."""
-    before = os.times()
-    p = subprocess.run([talus, "run", case], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    after = os.times()
-    if p.returncode != 0:
-        sys.exit(f"talus run {case} failed with exit code {p.returncode}:\n{p.stderr[-2000:]}")
-    summary = json.loads(p.stdout.split("talus-summary:", 1)[1].splitlines()[0])
-    return (after.children_user - before.children_user) + (after.children_system - before.children_system), summary
 
 
 def explicit_step(cell, dim):
@@ -99,7 +85,7 @@ def main():
                 text = text.replace("end: 1.0", f"end: {steps * h:.10g}")
                 with open(case, "w") as f:
                     f.write(text)
-                cpu, s = run(args.talus, case, steps)
+                cpu, s = run_talus_case(args.talus, case)
                 n, newton = s["steps"], s["newton_iterations"]
                 wall = s["wall_seconds"]
                 rows.append({

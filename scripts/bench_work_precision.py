@@ -41,29 +41,16 @@ machine. Needs Debian's python3-vtk9 and python3-matplotlib:
     /usr/bin/python3 scripts/bench_work_precision.py --studies settle # ~1 min
 """
 import argparse
-import json
 import math
 import os
 import shutil
-import subprocess
 import sys
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(REPO, "scripts"))
-from bench_common import markdown_lines, table_lines  # noqa: E402
+from bench_common import markdown_lines, run_talus_case, table_lines  # noqa: E402
 from bench_solvers import deposit  # noqa: E402
 from pvd import pvd_series  # noqa: E402
-
-
-def run(talus, case):
-    """(CPU s of the child, its talus-summary); exits on failure."""
-    before = os.times()
-    p = subprocess.run([talus, "run", case], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    after = os.times()
-    if p.returncode != 0:
-        sys.exit(f"talus run {case} failed with exit code {p.returncode}:\n{p.stderr[-2000:]}")
-    summary = json.loads(p.stdout.split("talus-summary:", 1)[1].splitlines()[0])
-    return (after.children_user - before.children_user) + (after.children_system - before.children_system), summary
 
 
 def read_output(path, names):
@@ -138,7 +125,7 @@ def bar_study(talus, work):
             h = period / math.ceil(period / h)  # a whole number of steps per period
             label = f"bar_{cells}_{integrator}_{h:.3e}"
             case, period = bar_case(work, label, cells, integrator, h)
-            cpu, s = run(talus, case)
+            cpu, s = run_talus_case(talus, case)
             err = bar_error(os.path.join(work, label), period, integrator, h)
             rows.append({"study": "bar", "config": name, "cells": cells, "h": h, "steps": s["steps"],
                          "newton": s["newton_iterations"], "cpu": cpu, "error": err})
@@ -173,7 +160,7 @@ def column_case(work, label, integrator, value):
 def column_study(talus, work):
     spacing = 0.005
     case, out = column_case(work, "column_reference", "explicit", 0.125)
-    cpu, s = run(talus, case)
+    cpu, s = run_talus_case(talus, case)
     ref = deposit(os.path.join(out, "particles.pvd"), spacing)
     print(f"column reference (explicit, cfl 0.125): {cpu:.1f} s, {s['steps']} steps, "
           f"L_99 {ref[0]:.4f} m, wall height {ref[1]:.4f} m", flush=True)
@@ -187,7 +174,7 @@ def column_study(talus, work):
     for integrator, value, name in configs:
         label = f"column_{integrator}_{value[0]:g}_{value[1]:g}" if integrator == "implicit" else f"column_explicit_{value:g}"
         case, out = column_case(work, label, integrator, value)
-        cpu, s = run(talus, case)
+        cpu, s = run_talus_case(talus, case)
         l99, wall = deposit(os.path.join(out, "particles.pvd"), spacing)
         err = abs(l99 - ref[0]) + abs(wall - ref[1])
         rows.append({"study": "column", "config": name, "cells": 100, "h": 1.0 / s["steps"], "steps": s["steps"],
@@ -244,7 +231,7 @@ def settle_study(talus, work):
             name = f"implicit theta 1, {steps} steps" if integrator == "implicit" else "explicit, cfl 0.5"
             label = f"settle_{cell:g}_{integrator}_{steps}"
             case, out = settle_case(work, label, cell, integrator, steps)
-            cpu, s = run(talus, case)
+            cpu, s = run_talus_case(talus, case)
             err = settle_error(out)
             rows.append({"study": "settle", "config": name, "cells": round(SETTLE_H / cell), "h": SETTLE_END / s["steps"],
                          "steps": s["steps"], "newton": s["newton_iterations"], "cpu": cpu, "error": err})
