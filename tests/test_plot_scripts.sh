@@ -4,7 +4,8 @@
 # scripts/plot_particles.py and scripts/plot_series.py. Both exit 0 and write
 # valid PNGs of a plausible size; the series CSV has one row per output whose
 # numbers are checked against the case (mass, initial height) and against
-# physics (no kinetic energy at rest, energy gained <= energy released).
+# physics (no kinetic energy at rest, energy gained <= energy released); the
+# energy balance drawn by scripts/plot_energy.py closes.
 # Then the same column on a frictional floor with a wall in its way: the
 # force columns of plot_series.py equal those of obstacle_forces.csv.
 set -euo pipefail
@@ -23,6 +24,14 @@ sed -e "s#directory: .*#directory: $work/out#" -e 's/end: .*/end: 0.3/' -e 's/in
 /usr/bin/python3 "$repo/scripts/plot_series.py" out/particles.pvd --out series.png --title "test" \
   > series.log 2>&1 || { echo "FAIL: plot_series.py"; cat series.log; exit 1; }
 [ -f series.csv ] || { echo "FAIL: no series.csv next to series.png"; ls; exit 1; }
+# The energy balance (docs/energy.md): scripts/plot_energy.py draws energy.csv
+# and reports the closing error relative to the energy that moved, which must
+# stay at the Newton tolerance (tests/test_energy_balance.cpp: below 1e-6).
+/usr/bin/python3 "$repo/scripts/plot_energy.py" out/energy.csv --out energy.png --title "test" \
+  > energy.log 2>&1 || { echo "FAIL: plot_energy.py"; cat energy.log; exit 1; }
+relative=$(sed -n 's/^largest |balance_error| .* = \([0-9.e+-]*\) of the energy that moved.*/\1/p' energy.log)
+/usr/bin/python3 -c "import sys; r = float(sys.argv[1]); sys.exit(0 if r < 1e-6 else 1)" "$relative" \
+  || { echo "FAIL: energy balance closes only to $relative"; cat energy.log; exit 1; }
 
 /usr/bin/python3 - "$work" <<'PY'
 import csv, os, struct, sys, xml.etree.ElementTree as ET
@@ -32,7 +41,7 @@ from vtk.util.numpy_support import vtk_to_numpy
 work = sys.argv[1]
 
 # PNGs: signature, IHDR chunk first, width and height > 100 px, a plausible file size.
-for name in ("particles.png", "series.png"):
+for name in ("particles.png", "series.png", "energy.png"):
     path = os.path.join(work, name)
     with open(path, "rb") as f:
         head = f.read(24)
