@@ -183,6 +183,12 @@ TEST_CASE("a restart with another case is refused, naming what differs", "[check
                          "materials: [{name: sand, model: drucker_prager, density: 2100, youngs_modulus: 1.0e6,"
                          " poisson_ratio: 0.3, friction_angle: 30, dilatancy_angle: 0, cohesion: 0}]\n"));
   }
+  SECTION("a default of the material changed (cohesion 0 -> 10 Pa)") {
+    restart_fails(path, refused + "`materials` differs",
+                  column("grid: {lower: [0, 0], upper: [1.0, 0.6], cell_size: 0.05}\n",
+                         "materials: [{name: sand, model: drucker_prager, density: 2000, youngs_modulus: 1.0e6,"
+                         " poisson_ratio: 0.3, friction_angle: 30, cohesion: 10}]\n"));
+  }
   SECTION("another gravity") {
     restart_fails(path, refused + "`gravity` differs",
                   column("grid: {lower: [0, 0], upper: [1.0, 0.6], cell_size: 0.05}\n",
@@ -192,12 +198,14 @@ TEST_CASE("a restart with another case is refused, naming what differs", "[check
   }
   SECTION("the same case written differently, run longer with another step, is accepted") {
     // Keys reordered, block style, 2e3 for 2000, defaults written out
-    // (shape_function, transfer, contact): the same fingerprint.
+    // (shape_function, transfer, contact) or left out (the material's
+    // dilatancy_angle and cohesion), the material's other defaults written
+    // out (hardening_modulus, mohr_coulomb_match): the same fingerprint.
     const std::string same = column(
         "grid:\n  cell_size: 5.0e-2\n  upper: [1, 0.6]\n  lower: [0.0, 0.0]\n  shape_function: quadratic_bspline\n"
         "transfer: {scheme: apic}\ncontact: {gap_prediction: 0.5}\n",
         "materials:\n  - {model: drucker_prager, name: sand, density: 2e3, youngs_modulus: 1000000,"
-        " poisson_ratio: 0.3, friction_angle: 30, dilatancy_angle: 0, cohesion: 0}\n",
+        " poisson_ratio: 0.3, friction_angle: 30.0, hardening_modulus: 0, mohr_coulomb_match: plane_strain}\n",
         "gravity: [0, -9.81]\n", "time: {end: 0.03125, step: 0.001953125}\n");
     Simulation<2> sim(testing::case_from_yaml(same), PETSC_COMM_SELF);
     REQUIRE_NOTHROW(sim.restart(path));

@@ -65,6 +65,7 @@ void check_conservation(ShapeKind kind, TransferScheme scheme, double flip_blend
     double density() const override { return 1500.0; }
     void update(const Voigt&, const Voigt&, const double*, double*, MaterialPointUpdate&) const override {}
     const Tangent& elastic_stiffness() const override { static Tangent t = Tangent::Identity(); return t; }
+    std::string parameters() const override { return "model: dummy"; }
   } dummy;
   seed_body<dim>(particles, grid, bc, dummy, 0, 0);
   // Random masses, velocities and affine velocities, keyed by particle id.

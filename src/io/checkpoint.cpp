@@ -91,7 +91,7 @@ void write_text_attribute(hid_t location, const char* name, const std::string& t
 // 3: the case fingerprint of grid, gravity, boundaries, contact and
 // transfer from their parsed values (2026-11-25); 2: all sections as YAML
 // text, the same day; 1 (no attribute): before, without a fingerprint.
-constexpr int checkpoint_format = 4;  // 4: the energy balance (2026-11-25)
+constexpr int checkpoint_format = 5;  // 4: the energy balance; 5: materials fingerprinted from their parsed parameters (2026-11-25)
 
 // A damaged checkpoint: what is wrong with it, for "not a valid talus checkpoint: <what>".
 struct Damaged : std::runtime_error {

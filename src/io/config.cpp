@@ -334,10 +334,10 @@ std::string directory_problem(const std::string& directory) {
 
 CaseFingerprint case_fingerprint(const YAML::Node& doc, const CaseConfig& c) {
   const std::filesystem::path base = std::filesystem::path(c.source_file).parent_path();
-  // The sections with few keys from their parsed values, defaults included,
-  // so that writing a default out (shape_function: quadratic_bspline,
-  // transfer: {scheme: apic}) is not a change; materials, bodies and
-  // obstacles from their canonical YAML text.
+  // The sections with few keys and the materials from their parsed values,
+  // defaults included, so that writing a default out (shape_function:
+  // quadratic_bspline, transfer: {scheme: apic}, cohesion: 0) is not a
+  // change; bodies and obstacles from their canonical YAML text.
   const char* const shapes[2] = {"quadratic_bspline", "linear"};
   std::string grid = "lower: " + list_text(c.grid.lower) + ", upper: " + list_text(c.grid.upper) +
                      ", cell_size: " + number_text(c.grid.cell_size) +
@@ -352,7 +352,13 @@ CaseFingerprint case_fingerprint(const YAML::Node& doc, const CaseConfig& c) {
   CaseFingerprint f;
   f.emplace_back("grid", grid);
   f.emplace_back("gravity", list_text(c.gravity));
-  for (const char* section : {"materials", "bodies"}) f.emplace_back(section, canonical(doc[section], base, section));
+  // Materials from their parsed parameters (Material::parameters), defaults
+  // included: `cohesion: 0` written out is no change.
+  std::string materials;
+  for (const MaterialConfig& m : c.materials)
+    materials += (materials.empty() ? "" : "; ") + ("name: " + m.name + ", " + m.law->parameters());
+  f.emplace_back("materials", materials);
+  f.emplace_back("bodies", canonical(doc["bodies"], base, "bodies"));
   f.emplace_back("boundaries", boundaries);
   f.emplace_back("obstacles", doc["obstacles"] ? canonical(doc["obstacles"], base, "obstacles") : "none");
   f.emplace_back("contact", "gap_prediction: " + number_text(c.contact.gap_prediction));

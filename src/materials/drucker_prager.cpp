@@ -213,4 +213,18 @@ void DruckerPrager::return_map(const Voigt& rotated_stress, const Voigt& strain_
   }
 }
 
+std::string DruckerPrager::parameters() const {
+  const double deg = 180.0 / 3.14159265358979323846;
+  const char* matches[3] = {"outer", "inner", "plane_strain"};
+  return parameter_text(model(), {{"density", par_.density},
+                                  {"youngs_modulus", par_.youngs_modulus},
+                                  {"poisson_ratio", par_.poisson_ratio},
+                                  {"friction_angle", par_.friction_angle * deg},
+                                  {"dilatancy_angle", par_.dilatancy_angle * deg},
+                                  {"cohesion", par_.cohesion},
+                                  {"hardening_modulus", par_.hardening_modulus},
+                                  {"tension_cutoff", par_.tension_cutoff}}) +
+         ", mohr_coulomb_match: " + matches[static_cast<int>(par_.match)];
+}
+
 }  // namespace talus

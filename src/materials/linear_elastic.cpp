@@ -36,4 +36,8 @@ void LinearElastic::update(const Voigt& rotated_stress, const Voigt& strain_incr
   out.plastic_strain_increment.setZero();
 }
 
+std::string LinearElastic::parameters() const {
+  return parameter_text(model(), {{"density", density_}, {"youngs_modulus", youngs_modulus_}, {"poisson_ratio", poisson_ratio_}});
+}
+
 }  // namespace talus

@@ -261,4 +261,14 @@ void MohrCoulomb::update(const Voigt& rotated_stress, const Voigt& strain_increm
   out.plastic_strain_increment = compliance_ * (trial - out.stress);
 }
 
+std::string MohrCoulomb::parameters() const {
+  const double deg = 180.0 / 3.14159265358979323846;
+  return parameter_text(model(), {{"density", par_.density},
+                                  {"youngs_modulus", par_.youngs_modulus},
+                                  {"poisson_ratio", par_.poisson_ratio},
+                                  {"friction_angle", par_.friction_angle * deg},
+                                  {"dilatancy_angle", par_.dilatancy_angle * deg},
+                                  {"cohesion", par_.cohesion}});
+}
+
 }  // namespace talus

@@ -1,5 +1,7 @@
 #include "talus/materials/parameters.hpp"
 
+#include <sstream>
+
 #include <string>
 
 #include "talus/io/yaml_section.hpp"
@@ -39,6 +41,14 @@ FrictionParameters read_friction_parameters(YamlSection& y) {
   p.cohesion = y.real("cohesion", 0.0);
   if (!(p.cohesion >= 0.0)) y.fail_value("cohesion", "must be >= 0");
   return p;
+}
+
+std::string parameter_text(const char* model, const std::vector<std::pair<const char*, double>>& values) {
+  std::ostringstream out;
+  out.precision(17);
+  out << "model: " << model;
+  for (const auto& [key, value] : values) out << ", " << key << ": " << value;
+  return out.str();
 }
 
 }  // namespace talus

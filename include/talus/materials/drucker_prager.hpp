@@ -60,6 +60,7 @@ class DruckerPrager final : public Material {
   void update(const Voigt& rotated_stress, const Voigt& strain_increment, const double* state_old,
               double* state_new, MaterialPointUpdate& out) const override;
   const Tangent& elastic_stiffness() const override { return stiffness_; }
+  std::string parameters() const override;
 
   double yield_function(const Voigt& stress, double alpha) const;
   double eta() const { return eta_; }

@@ -14,6 +14,7 @@ class LinearElastic final : public Material {
   void update(const Voigt& rotated_stress, const Voigt& strain_increment, const double*, double*,
               MaterialPointUpdate& out) const override;
   const Tangent& elastic_stiffness() const override { return stiffness_; }
+  std::string parameters() const override;
 
   double youngs_modulus() const { return youngs_modulus_; }
   double poisson_ratio() const { return poisson_ratio_; }

@@ -41,6 +41,10 @@ class Material {
                       double* state_new, MaterialPointUpdate& out) const = 0;
   // Elastic stiffness (for wave speeds, time-step estimates and initial stress).
   virtual const Tangent& elastic_stiffness() const = 0;
+  // Every parameter of the law as parsed, defaults included, as
+  // "key: value, ..." (angles in degrees): what a checkpoint's case
+  // fingerprint compares, so that writing a default out is no change.
+  virtual std::string parameters() const = 0;
 };
 
 // The built-in materials, by the key used in the case file's `model:`.

@@ -57,6 +57,7 @@ class MohrCoulomb final : public Material {
   void update(const Voigt& rotated_stress, const Voigt& strain_increment, const double* state_old,
               double* state_new, MaterialPointUpdate& out) const override;
   const Tangent& elastic_stiffness() const override { return stiffness_; }
+  std::string parameters() const override;
 
   // The return mapping in principal stresses; `trial` sorted descending.
   MohrCoulombPrincipalReturn principal_return(const Eigen::Vector3d& trial) const;
