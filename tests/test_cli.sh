@@ -13,6 +13,13 @@ for case in "$repo"/inputs/*.yaml; do
   "$talus" check "$case" > /dev/null || { echo "FAIL: talus check $case"; exit 1; }
 done
 
+# The explicit case: `check` reports the step it chose, time.cfl (0.5) x the
+# stability limit 2 dx / (c_p sqrt(2 * 3)) = 2.985e-4 s for E = 1 MPa, nu = 0.3,
+# rho = 1800, dx = 0.01 (docs/explicit.md#the-step).
+"$talus" check "$repo/inputs/reference_column_explicit.yaml" > explicit_check.log
+grep -q "is a valid 2D case, explicit steps of 0.000149 s" explicit_check.log ||
+  { echo "FAIL: talus check does not report the explicit step"; cat explicit_check.log; exit 1; }
+
 # The particle file of inputs/landslide_from_particles.yaml is what
 # scripts/fill_between_surfaces.py writes from its two profiles (the command
 # in the case's header), particle for particle.

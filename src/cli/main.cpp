@@ -150,7 +150,13 @@ int main(int argc, char** argv) {
     if (command == "check") {
       talus::apply_case_petsc_options(config);
       talus::check_petsc_options(PETSC_COMM_WORLD);
-      if (rank == 0) std::cout << "talus: " << argv[2] << " is a valid " << config.dim << "D case\n";
+      if (rank == 0) {
+        std::cout << "talus: " << argv[2] << " is a valid " << config.dim << "D case";
+        // The explicit step is chosen when the case is read (docs/explicit.md#the-step).
+        if (config.time.integrator == talus::Integrator::explicit_euler)
+          std::cout << std::setprecision(3) << ", explicit steps of " << config.time.step << " s";
+        std::cout << "\n";
+      }
     } else {
       code = config.dim == 2 ? run_case<2>(config, restart, rank) : run_case<3>(config, restart, rank);
     }
