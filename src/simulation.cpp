@@ -69,9 +69,10 @@ Simulation<dim>::Simulation(const CaseConfig& config, MPI_Comm comm) : config_(c
   grid_ = std::make_unique<Grid<dim>>(comm, lo, hi, config.grid.cell_size, config.grid.shape);
   particles_ = std::make_unique<Particles<dim>>(comm);
   for (const auto& m : config.materials) materials_.push_back(m.law.get());
+  // C^-1 of each material, for the energy balance's elastic energy (docs/energy.md).
+  for (const Material* m : materials_) compliance_.push_back(m->elastic_stiffness().inverse());
   for (const ObstacleConfig& o : config.obstacles) obstacles_.emplace_back(o);
   // A frictional face is a rigid half-plane on the face, its solid outside the grid.
-  const char* face_names[6] = {"x_min", "x_max", "y_min", "y_max", "z_min", "z_max"};
   for (int f = 0; f < 2 * dim; ++f)
     if (config.faces[f] == FaceCondition::frictional) {
       ObstacleConfig face;
@@ -205,7 +206,8 @@ StepReport Simulation<dim>::advance(double h) {
   record_contact_forces(system.contacts(), system.contact_impulses(), system.contact_maps(), h);
   if (grid_output()) record_grid_points(fields, system.end_velocity(), &system, h);
   report.transfer_seconds += complete_step(system, stencils, fields, h, config_.time.theta);
-  account_energy(system.step_energy(config_.time.theta, config_.time.theta, system.contacts(), system.contact_impulses()),
+  account_energy(system.step_energy(config_.time.theta, config_.time.theta, compliance_, system.contacts(),
+                                   system.contact_impulses()),
                  kinetic_start);
   report.converged = true;
   return report;
@@ -242,74 +244,6 @@ double Simulation<dim>::complete_step(const MomentumSystem<dim>& system, const s
   particles_->migrate(*grid_);
   time_ += h;
   return seconds_since(t2);
-}
-
-template <int dim>
-void Simulation<dim>::record_contact_forces(const std::vector<ContactPoint<dim>>& contacts,
-                                           const std::vector<Vector<dim>>& impulses,
-                                           const std::vector<NaturalMap<dim>>& maps, double h) {
-  nodal_contacts_.clear();
-  std::vector<double> local(obstacles_.size() * dim, 0.0), total(local.size(), 0.0);
-  for (std::size_t c = 0; c < contacts.size(); ++c) {
-    const Vector<dim> force = impulses[c] / h;
-    for (int a = 0; a < dim; ++a) local[contacts[c].obstacle * dim + a] += force[a];
-    nodal_contacts_.push_back({grid_->point_position(grid_->global_index(contacts[c].point)), force,
-                               contacts[c].obstacle, maps[c].region});
-  }
-  if (!obstacles_.empty())
-    MPI_Allreduce(local.data(), total.data(), static_cast<int>(local.size()), MPI_DOUBLE, MPI_SUM, comm_);
-  for (std::size_t o = 0; o < obstacles_.size(); ++o)
-    obstacle_force_[o] = Eigen::Map<const Vector<dim>>(total.data() + dim * o);
-}
-
-template <int dim>
-void Simulation<dim>::record_grid_points(const GridFields<dim>& fields, const std::vector<double>& velocity,
-                                         const MomentumSystem<dim>* system, double h) {
-  PointCloud& cloud = grid_points_;
-  cloud = PointCloud{};
-  cloud.arrays = {{"mass", 1, false, {}},
-                  {"velocity", 3, false, {}},
-                  {"contact_force", 3, false, {}},
-                  {"active", 1, true, {}}};
-  cloud.vectors = "velocity";
-  auto& mass = cloud.arrays[0].values;
-  auto& v = cloud.arrays[1].values;
-  auto& force = cloud.arrays[2].values;
-  auto& active = cloud.arrays[3].values;
-  const int n = grid_->ghosted_count();
-  std::vector<int> slot(static_cast<std::size_t>(n), -1);  // ghosted index -> point of the cloud
-  for (int i = 0; i < n; ++i) {
-    const auto ijk = grid_->global_index(i);
-    if (!(fields.mass[i] > 0.0) || !grid_->is_owned(ijk)) continue;
-    slot[i] = static_cast<int>(cloud.points.size());
-    const Vector<dim> x = grid_->point_position(ijk);
-    std::array<double, 3> p{0.0, 0.0, 0.0};
-    for (int a = 0; a < dim; ++a) p[a] = x[a];
-    cloud.points.push_back(p);
-    mass.push_back(fields.mass[i]);
-    for (int a = 0; a < 3; ++a) v.push_back(a < dim ? velocity[dim * i + a] : 0.0);
-    force.insert(force.end(), 3, 0.0);
-    // The unknowns of the step: the points above the active-mass threshold (ActiveSet::build).
-    active.push_back(fields.mass[i] > mass_threshold_ ? 1.0 : 0.0);
-  }
-  if (!system) return;
-  const auto& contacts = system->contacts();
-  for (std::size_t c = 0; c < contacts.size(); ++c) {
-    const int k = slot[contacts[c].point];
-    if (k < 0) continue;  // a contact point always carries mass: not reached
-    // As in contacts.pvd: the force on the obstacle, -r_i / h.
-    const Vector<dim> f = system->contact_impulses()[c] / h;
-    for (int a = 0; a < dim; ++a) force[3 * static_cast<std::size_t>(k) + a] = 0.0 - f[a];
-  }
-}
-
-template <int dim>
-void Simulation<dim>::record_initial_grid_points() {
-  std::vector<Stencil<dim>> stencils;
-  compute_stencils(*grid_, *particles_, stencils);
-  GridFields<dim> fields;
-  particles_to_grid(*grid_, *particles_, stencils, config_.transfer.scheme, fields);
-  record_grid_points(fields, fields.velocity, nullptr, 0.0);
 }
 
 template <int dim>
@@ -365,133 +299,11 @@ void Simulation<dim>::keep_particles_inside() {
                           number_text(time_) + "; enlarge the grid box or make that face slip or fixed");
 }
 
-template <int dim>
-std::vector<ContactSample<dim>> Simulation<dim>::contact_samples() const {
-  std::vector<ContactSample<dim>> samples;
-  samples.reserve(nodal_contacts_.size());
-  for (const NodalContact& c : nodal_contacts_) {
-    // 0 sticking (inside the cone), 1 separating (polar cone: r = 0), 2 sliding (on its boundary).
-    const int state = c.region == ConeRegion::inside ? 0 : c.region == ConeRegion::polar ? 1 : 2;
-    samples.push_back({c.position, Vector<dim>(Vector<dim>::Zero() - c.force), c.obstacle, state});
-  }
-  return samples;
-}
-
-template <int dim>
-std::vector<std::string> Simulation<dim>::force_columns() const {
-  std::vector<std::string> columns;
-  const char* axes[3] = {"_fx", "_fy", "_fz"};
-  for (const Obstacle<dim>& o : obstacles_)
-    for (int a = 0; a < dim; ++a) columns.push_back(o.name() + axes[a]);
-  return columns;
-}
-
-template <int dim>
-std::vector<double> Simulation<dim>::force_row() const {
-  std::vector<double> row;
-  for (const Vector<dim>& f : obstacle_force_)
-    // On the obstacle: minus the force on the body (0.0 - f: +0, not -0, where nothing touches).
-    for (int a = 0; a < dim; ++a) row.push_back(0.0 - f[a]);
-  return row;
-}
-
 namespace {
 // Set by SIGINT/SIGTERM; the run loop checks it after every step.
 volatile std::sig_atomic_t pending_signal = 0;
 extern "C" void remember_signal(int signal) { pending_signal = signal; }
 }  // namespace
-
-template <int dim>
-void Simulation<dim>::restart(const std::string& checkpoint_path) {
-  // On the number of ranks that wrote it, the checkpoint's grid ownership
-  // comes back, so that every particle returns to its rank and the run
-  // continues bit for bit; on another number, the ranks are balanced anew.
-  const RunState header = read_run_state(checkpoint_path, comm_);
-  // The particle state belongs to one case: another grid, material list,
-  // body list, boundary, obstacle, gravity or transfer would run it on a
-  // wrong state (docs/checkpoints.md#restart-with-a-changed-case).
-  const std::string mismatch = fingerprint_mismatch(header, config_.fingerprint);
-  if (!mismatch.empty())
-    throw InputError(checkpoint_path + ": the checkpoint belongs to another case: " + mismatch);
-  int ranks = 1;
-  MPI_Comm_size(comm_, &ranks);
-  const auto& stored = header.grid_ownership;
-  int stored_ranks = stored.size() == static_cast<std::size_t>(dim) ? 1 : 0;
-  for (const auto& axis : stored) stored_ranks *= static_cast<int>(axis.size());
-  const bool restore = stored_ranks == ranks;
-  if (restore) {
-    Ownership<dim> ownership;
-    for (int a = 0; a < dim; ++a) {
-      long sum = 0;
-      for (int n : stored[a]) {
-        if (n < grid_->stencil_width())
-          throw InputError(checkpoint_path + ": not a valid talus checkpoint: a process column of " +
-                           std::to_string(n) + " grid points in grid_ownership");
-        sum += n;
-      }
-      if (sum != grid_->points()[a])
-        throw InputError(checkpoint_path + ": the checkpoint's grid has " + std::to_string(sum) +
-                         " points along axis " + std::to_string(a) + ", this case's grid " +
-                         std::to_string(grid_->points()[a]));
-      ownership[a] = stored[a];
-    }
-    if (ownership != grid_->ownership()) repartition(ownership);
-  }
-  CheckpointExpectations expected;
-  for (int a = 0; a < dim; ++a) {
-    expected.lower.push_back(grid_->lower()[a]);
-    expected.upper.push_back(grid_->upper()[a]);
-  }
-  for (const Material* m : materials_) expected.density.push_back(m->density());
-  for (const BodyConfig& b : config_.bodies) expected.body_material.push_back(b.material);
-  resume_ = std::make_unique<RunState>(read_checkpoint(checkpoint_path, *particles_, *grid_, expected, comm_));
-  time_ = resume_->time;
-  if (!restore) {
-    balance_ranks(true);
-    rebalances_ = 0;
-  }
-  restore_last_acceleration(*resume_);
-  // The energy balance goes on from the checkpoint's sums.
-  initial_energy_ = resume_->initial_energy;
-  const auto& t = resume_->energy_terms;
-  energy_.plastic = t[0], energy_.contact = t[1], energy_.obstacle_work = t[2];
-  energy_.faces = t[3], energy_.transfer = t[4], energy_.time_integration = t[5], energy_.correction_work = t[6];
-  particle_energy_ = particle_energy();
-}
-
-template <int dim>
-void Simulation<dim>::store_last_acceleration(RunState& state) const {
-  state.accelerated_points.clear();
-  state.point_acceleration.clear();
-  const int n = static_cast<int>(last_acceleration_.size()) / dim;
-  for (int i = 0; i < n; ++i) {
-    if (!std::isfinite(last_acceleration_[dim * i])) continue;
-    const auto ijk = grid_->global_index(i);
-    long long index = 0;  // x fastest, as the DMDA's natural ordering
-    for (int a = dim - 1; a >= 0; --a) index = index * grid_->points()[a] + ijk[a];
-    state.accelerated_points.push_back(index);
-    for (int a = 0; a < dim; ++a) state.point_acceleration.push_back(last_acceleration_[dim * i + a]);
-  }
-}
-
-template <int dim>
-void Simulation<dim>::restore_last_acceleration(const RunState& state) {
-  last_acceleration_.clear();
-  if (state.accelerated_points.empty()) return;
-  last_acceleration_.assign(static_cast<std::size_t>(grid_->ghosted_count()) * dim,
-                            std::numeric_limits<double>::quiet_NaN());
-  for (std::size_t r = 0; r < state.accelerated_points.size(); ++r) {
-    long long index = state.accelerated_points[r];
-    std::array<int, dim> ijk;
-    for (int a = 0; a < dim; ++a) {
-      ijk[a] = static_cast<int>(index % grid_->points()[a]);
-      index /= grid_->points()[a];
-    }
-    if (!grid_->is_owned(ijk)) continue;
-    const int i = grid_->local_index(ijk);
-    for (int a = 0; a < dim; ++a) last_acceleration_[dim * i + a] = state.point_acceleration[dim * r + a];
-  }
-}
 
 template <int dim>
 RunSummary Simulation<dim>::run(std::ostream* progress) {

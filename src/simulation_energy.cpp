@@ -23,8 +23,6 @@ ParticleEnergy Simulation<dim>::local_particle_energy() const {
   FieldView<PetscReal> m(sw, field::mass), x(sw, field::position), v(sw, field::velocity), tau(sw, field::stress),
       volume(sw, field::initial_volume);
   FieldView<PetscInt> material(sw, field::material_id);
-  std::vector<Tangent> compliance(materials_.size());
-  for (std::size_t k = 0; k < materials_.size(); ++k) compliance[k] = materials_[k]->elastic_stiffness().inverse();
   ParticleEnergy e;
   for (PetscInt p = 0; p < particles_->local_count(); ++p) {
     e.kinetic += 0.5 * m[p] * Eigen::Map<const Vector<dim>>(v.data() + dim * p).squaredNorm();
@@ -32,7 +30,7 @@ ParticleEnergy Simulation<dim>::local_particle_energy() const {
     // elastic part of the Kirchhoff stress (engineering shears in C^-1 tau).
     e.gravitational -= m[p] * gravity_.dot(Eigen::Map<const Vector<dim>>(x.data() + dim * p));
     const Eigen::Map<const Voigt> t(tau.data() + 6 * p);
-    e.elastic += 0.5 * volume[p] * t.dot(compliance[material[p]] * t);
+    e.elastic += 0.5 * volume[p] * t.dot(compliance_[material[p]] * t);
   }
   return e;
 }

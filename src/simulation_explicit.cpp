@@ -144,7 +144,7 @@ StepReport Simulation<dim>::advance_explicit(double h) {
   report.transfer_seconds += complete_step(system, stencils, fields, h, 1.0);
   // The force used sigma^n (weight 0 of sigma^{n+1}), the strain and the
   // motion v^{n+1} (weight 1): docs/energy.md.
-  account_energy(system.step_energy(0.0, 1.0, contacts, impulses), kinetic_start);
+  account_energy(system.step_energy(0.0, 1.0, compliance_, contacts, impulses), kinetic_start);
   report.converged = true;
   return report;
 }

@@ -153,6 +153,7 @@ class Simulation {
   std::unique_ptr<Particles<dim>> particles_;
   std::unique_ptr<NewtonSolver<dim>> newton_;
   std::vector<const Material*> materials_;
+  std::vector<Tangent> compliance_;  // C^-1 per material (the energy balance)
   std::vector<Obstacle<dim>> obstacles_;
   std::vector<Vector<dim>> obstacle_force_;
   std::vector<NodalContact> nodal_contacts_;

@@ -98,6 +98,12 @@ std::string YamlSection::written(const std::string& key) const {
   return scalar_text(c);
 }
 
+std::string list_text(const std::vector<double>& values) {
+  std::string s = "[";
+  for (std::size_t i = 0; i < values.size(); ++i) s += (i ? ", " : "") + number_text(values[i]);
+  return s + "]";
+}
+
 std::string number_text(double value) {
   char buffer[64];
   const auto r = std::to_chars(buffer, buffer + sizeof buffer, value);

@@ -532,6 +532,7 @@ void MomentumSystem<dim>::finish(Vec v) {
 
 template <int dim>
 StepEnergy MomentumSystem<dim>::step_energy(double stress_weight, double velocity_weight,
+                                            const std::vector<Tangent>& compliance,
                                             const std::vector<ContactPoint<dim>>& contacts,
                                             const std::vector<Vector<dim>>& impulses) const {
   StepEnergy e;
@@ -555,8 +556,6 @@ StepEnergy MomentumSystem<dim>::step_energy(double stress_weight, double velocit
   // Particles: V0 tau^w : d eps = dE + (w - 1/2) V0 d tau : C^-1 : d tau
   // + V0 tau^w : (d eps_p + d(closed voids) I / 3) - V0 tau^w : C^-1 : (sigma* - sigma^n)
   // (the last: the Jaumann rotation, work-free to first order only).
-  std::vector<Tangent> compliance(materials_.size());
-  for (std::size_t m = 0; m < materials_.size(); ++m) compliance[m] = materials_[m]->elastic_stiffness().inverse();
   for (std::size_t p = 0; p < stress_end_.size(); ++p) {
     const Voigt dtau = stress_end_[p] - stress_old_[p];
     const Voigt tau_w = (1.0 - stress_weight) * stress_old_[p] + stress_weight * stress_end_[p];

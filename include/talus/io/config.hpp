@@ -11,12 +11,20 @@
 #include "talus/materials/material.hpp"
 #include "talus/shape/shape_functions.hpp"
 
+namespace YAML {
+class Node;
+}
+
 namespace talus {
 
 // free: no condition; slip: zero normal velocity; fixed: zero velocity;
 // frictional: Coulomb contact with the face as a rigid half-plane (the
 // face's friction and restitution in CaseConfig::face_contact).
 enum class FaceCondition { free, slip, fixed, frictional };
+// The case file's names of the faces (x_min, x_max, ...) and of their
+// conditions, in FaceCondition order (defined in src/io/config.cpp).
+extern const char* const face_names[6];
+extern const std::vector<std::string> face_conditions;
 enum class TransferScheme { apic, flip };
 
 struct GridConfig {
@@ -184,5 +192,10 @@ struct CaseConfig {
 // Reads and validates; throws InputError with file, line, key and value.
 CaseConfig load_case(const std::string& file);
 CaseConfig parse_case(const std::string& yaml_text, const std::string& name_for_messages);
+
+// What a checkpoint records of the case (docs/checkpoints.md#restart-with-a-changed-case):
+// grid, gravity, boundaries, contact, transfer and materials from their parsed
+// values, bodies and obstacles as canonical text (src/io/case_fingerprint.cpp).
+CaseFingerprint case_fingerprint(const YAML::Node& doc, const CaseConfig& c);
 
 }  // namespace talus

@@ -19,6 +19,8 @@ namespace talus {
 // A computed number in a message: the shortest text that reads back to the
 // same double ("0.5", "1e-12", "2"), not std::to_string's six decimals.
 std::string number_text(double value);
+// "[a, b, c]" with number_text.
+std::string list_text(const std::vector<double>& values);
 
 // The largest data file (terrain, particle, STL) and case file talus reads.
 inline constexpr std::uintmax_t max_data_file_bytes = std::uintmax_t(2) << 30;

@@ -80,10 +80,10 @@ class MomentumSystem {
   // (energy_balance.hpp, docs/energy.md). stress_weight: the weight of
   // sigma^{n+1} in the internal force (theta; 0 for the explicit step);
   // velocity_weight: that of v^{n+1} in the strain and the motion (theta; 1
-  // explicit). `contacts` and their impulses r_i: the system's own or the
-  // explicit step's.
-  StepEnergy step_energy(double stress_weight, double velocity_weight, const std::vector<ContactPoint<dim>>& contacts,
-                         const std::vector<Vector<dim>>& impulses) const;
+  // explicit). compliance: C^-1 of each material. `contacts` and their
+  // impulses r_i: the system's own or the explicit step's.
+  StepEnergy step_energy(double stress_weight, double velocity_weight, const std::vector<Tangent>& compliance,
+                         const std::vector<ContactPoint<dim>>& contacts, const std::vector<Vector<dim>>& impulses) const;
   const std::vector<NaturalMap<dim>>& contact_maps() const { return contact_map_; }
   double contact_seconds() const { return contact_seconds_; }  // time spent in the contact rows
 

@@ -1,0 +1,123 @@
+// What a step leaves for the output (docs/output.md): the contact forces per
+// obstacle and per point, the grid points of output.grid, and the rows of
+// obstacle_forces.csv.
+#include "talus/simulation.hpp"
+
+namespace talus {
+
+template <int dim>
+void Simulation<dim>::record_contact_forces(const std::vector<ContactPoint<dim>>& contacts,
+                                           const std::vector<Vector<dim>>& impulses,
+                                           const std::vector<NaturalMap<dim>>& maps, double h) {
+  nodal_contacts_.clear();
+  std::vector<double> local(obstacles_.size() * dim, 0.0), total(local.size(), 0.0);
+  for (std::size_t c = 0; c < contacts.size(); ++c) {
+    const Vector<dim> force = impulses[c] / h;
+    for (int a = 0; a < dim; ++a) local[contacts[c].obstacle * dim + a] += force[a];
+    nodal_contacts_.push_back({grid_->point_position(grid_->global_index(contacts[c].point)), force,
+                               contacts[c].obstacle, maps[c].region});
+  }
+  if (!obstacles_.empty())
+    MPI_Allreduce(local.data(), total.data(), static_cast<int>(local.size()), MPI_DOUBLE, MPI_SUM, comm_);
+  for (std::size_t o = 0; o < obstacles_.size(); ++o)
+    obstacle_force_[o] = Eigen::Map<const Vector<dim>>(total.data() + dim * o);
+}
+
+template <int dim>
+void Simulation<dim>::record_grid_points(const GridFields<dim>& fields, const std::vector<double>& velocity,
+                                         const MomentumSystem<dim>* system, double h) {
+  PointCloud& cloud = grid_points_;
+  cloud = PointCloud{};
+  cloud.arrays = {{"mass", 1, false, {}},
+                  {"velocity", 3, false, {}},
+                  {"contact_force", 3, false, {}},
+                  {"active", 1, true, {}}};
+  cloud.vectors = "velocity";
+  auto& mass = cloud.arrays[0].values;
+  auto& v = cloud.arrays[1].values;
+  auto& force = cloud.arrays[2].values;
+  auto& active = cloud.arrays[3].values;
+  const int n = grid_->ghosted_count();
+  std::vector<int> slot(static_cast<std::size_t>(n), -1);  // ghosted index -> point of the cloud
+  for (int i = 0; i < n; ++i) {
+    const auto ijk = grid_->global_index(i);
+    if (!(fields.mass[i] > 0.0) || !grid_->is_owned(ijk)) continue;
+    slot[i] = static_cast<int>(cloud.points.size());
+    const Vector<dim> x = grid_->point_position(ijk);
+    std::array<double, 3> p{0.0, 0.0, 0.0};
+    for (int a = 0; a < dim; ++a) p[a] = x[a];
+    cloud.points.push_back(p);
+    mass.push_back(fields.mass[i]);
+    for (int a = 0; a < 3; ++a) v.push_back(a < dim ? velocity[dim * i + a] : 0.0);
+    force.insert(force.end(), 3, 0.0);
+    // The unknowns of the step: the points above the active-mass threshold (ActiveSet::build).
+    active.push_back(fields.mass[i] > mass_threshold_ ? 1.0 : 0.0);
+  }
+  if (!system) return;
+  const auto& contacts = system->contacts();
+  for (std::size_t c = 0; c < contacts.size(); ++c) {
+    const int k = slot[contacts[c].point];
+    if (k < 0) continue;  // a contact point always carries mass: not reached
+    // As in contacts.pvd: the force on the obstacle, -r_i / h.
+    const Vector<dim> f = system->contact_impulses()[c] / h;
+    for (int a = 0; a < dim; ++a) force[3 * static_cast<std::size_t>(k) + a] = 0.0 - f[a];
+  }
+}
+
+template <int dim>
+void Simulation<dim>::record_initial_grid_points() {
+  std::vector<Stencil<dim>> stencils;
+  compute_stencils(*grid_, *particles_, stencils);
+  GridFields<dim> fields;
+  particles_to_grid(*grid_, *particles_, stencils, config_.transfer.scheme, fields);
+  record_grid_points(fields, fields.velocity, nullptr, 0.0);
+}
+
+template <int dim>
+std::vector<ContactSample<dim>> Simulation<dim>::contact_samples() const {
+  std::vector<ContactSample<dim>> samples;
+  samples.reserve(nodal_contacts_.size());
+  for (const NodalContact& c : nodal_contacts_) {
+    // 0 sticking (inside the cone), 1 separating (polar cone: r = 0), 2 sliding (on its boundary).
+    const int state = c.region == ConeRegion::inside ? 0 : c.region == ConeRegion::polar ? 1 : 2;
+    samples.push_back({c.position, Vector<dim>(Vector<dim>::Zero() - c.force), c.obstacle, state});
+  }
+  return samples;
+}
+
+template <int dim>
+std::vector<std::string> Simulation<dim>::force_columns() const {
+  std::vector<std::string> columns;
+  const char* axes[3] = {"_fx", "_fy", "_fz"};
+  for (const Obstacle<dim>& o : obstacles_)
+    for (int a = 0; a < dim; ++a) columns.push_back(o.name() + axes[a]);
+  return columns;
+}
+
+template <int dim>
+std::vector<double> Simulation<dim>::force_row() const {
+  std::vector<double> row;
+  for (const Vector<dim>& f : obstacle_force_)
+    // On the obstacle: minus the force on the body (0.0 - f: +0, not -0, where nothing touches).
+    for (int a = 0; a < dim; ++a) row.push_back(0.0 - f[a]);
+  return row;
+}
+
+template void Simulation<2>::record_contact_forces(const std::vector<ContactPoint<2>>&, const std::vector<Vector<2>>&,
+                                                  const std::vector<NaturalMap<2>>&, double);
+template void Simulation<3>::record_contact_forces(const std::vector<ContactPoint<3>>&, const std::vector<Vector<3>>&,
+                                                  const std::vector<NaturalMap<3>>&, double);
+template void Simulation<2>::record_grid_points(const GridFields<2>&, const std::vector<double>&,
+                                               const MomentumSystem<2>*, double);
+template void Simulation<3>::record_grid_points(const GridFields<3>&, const std::vector<double>&,
+                                               const MomentumSystem<3>*, double);
+template void Simulation<2>::record_initial_grid_points();
+template void Simulation<3>::record_initial_grid_points();
+template std::vector<ContactSample<2>> Simulation<2>::contact_samples() const;
+template std::vector<ContactSample<3>> Simulation<3>::contact_samples() const;
+template std::vector<std::string> Simulation<2>::force_columns() const;
+template std::vector<std::string> Simulation<3>::force_columns() const;
+template std::vector<double> Simulation<2>::force_row() const;
+template std::vector<double> Simulation<3>::force_row() const;
+
+}  // namespace talus
