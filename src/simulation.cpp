@@ -29,7 +29,38 @@ std::string clock_text(double s) {
      << t % 60;
   return os.str();
 }
+
+// What a user can change when the step cannot be cut back any further
+// (issue 15: a failure message that says what to do).
+std::string failure_advice(const CaseConfig& c, double nominal) {
+  std::ostringstream m;
+  m << "to get past it: a smaller nominal step (now " << number_text(nominal) << " s";
+  if (!c.time.auto_step) m << "; `time.step: auto` chooses one from the cell size and gravity";
+  m << ", docs/solver.md#choosing-the-step), a smaller time.min_step_ratio (now " << number_text(c.time.min_step_ratio)
+    << ") to allow deeper cut-backs, a finer grid.cell_size where few particles carry the failing region, "
+       "or another Newton globalization (-talus_snes_linesearch_type, docs/solver.md#large-steps); "
+       "-talus_snes_monitor prints the Newton history";
+  return m.str();
+}
 }  // namespace
+
+template <int dim>
+double Simulation<dim>::auto_nominal_step() const {
+  DM sw = particles_->swarm();
+  FieldView<PetscReal> v(sw, field::velocity);
+  double speed = 0.0;
+  for (PetscInt p = 0; p < particles_->local_count(); ++p)
+    speed = std::max(speed, Eigen::Map<const Vector<dim>>(v.data() + dim * p).norm());
+  for (const auto& o : obstacles_) speed = std::max(speed, o.velocity().norm());
+  MPI_Allreduce(MPI_IN_PLACE, &speed, 1, MPI_DOUBLE, MPI_MAX, comm_);
+  const TimeConfig& tc = config_.time;
+  const double inf = std::numeric_limits<double>::infinity();
+  const double g = gravity_.norm();
+  const double by_gravity = g > 0 ? tc.gravity_number * std::sqrt(grid_->cell_size() / g) : inf;
+  const double by_speed = speed > 0 ? tc.courant * grid_->cell_size() / speed : inf;
+  const double h = std::min(by_gravity, by_speed);
+  return std::isfinite(h) ? h : tc.step;
+}
 
 void apply_case_petsc_options(const CaseConfig& config) {
   for (const auto& [key, value] : config.solver.petsc_options) {
@@ -449,6 +480,7 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
   } restore_signals{previous_int, previous_term};
   const long rebalances_at_start = rebalances_;
   while (time_ < tc.end - eps) {
+    if (tc.auto_step) control.set_nominal(auto_nominal_step());
     const double h_try = std::min(control.step(), tc.end - time_);
     // Balanced ranks: re-partition the grid when the particles have moved
     // too far out of balance (docs/parallel.md).
@@ -473,9 +505,10 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
       if (progress && rank == 0)
         *progress << "  Newton failed (" << r.newton.reason << ") at t = " << time_ << " with h = " << h_try
                   << "; retrying with h = " << h << "\n";
-      if (h < tc.min_step_ratio * tc.step)
+      if (h < tc.min_step_ratio * control.nominal())
         throw SimulationError("Newton did not converge at t = " + number_text(time_) +
-                              " even with h = " + number_text(h_try) + " (" + r.newton.reason + ")");
+                              " even with h = " + number_text(h_try) + " (" + r.newton.reason + "); " +
+                              failure_advice(config_, control.nominal()));
       continue;
     }
     ++summary.steps;

@@ -134,6 +134,10 @@ class Simulation {
   double complete_step(const MomentumSystem<dim>& system, const std::vector<Stencil<dim>>& stencils,
                        const GridFields<dim>& fields, double h, double theta);
   void keep_particles_inside();
+  // `time.step: auto`: min(gravity_number sqrt(cell / |g|), courant cell /
+  // v_max) with v_max the fastest particle or obstacle now (collective); the
+  // first step when nothing moves and there is no gravity.
+  double auto_nominal_step() const;
   bool grid_output() const { return config_.output.enabled && config_.output.grid; }
   // Stores grid_points_: mass, the velocity `velocity` (ghosted, dim per
   // point) and, with `system`, the contact forces -r_i / h of its contact points.

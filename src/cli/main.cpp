@@ -43,6 +43,8 @@ int run_case(const talus::CaseConfig& config, const std::string& restart, int ra
               << (dim == 3 ? " x " + std::to_string(sim.grid().cells()[dim - 1]) : std::string()) << " cells"
               << (config.time.integrator == talus::Integrator::explicit_euler
                       ? ", explicit steps of " + [&] { std::ostringstream t; t << std::setprecision(3) << config.time.step; return t.str(); }() + " s"
+                      : config.time.auto_step
+                      ? ", automatic steps from " + [&] { std::ostringstream t; t << std::setprecision(3) << config.time.step; return t.str(); }() + " s"
                       : std::string())
               << "\n";
   const talus::RunSummary s = sim.run(&std::cout);
@@ -155,6 +157,9 @@ int main(int argc, char** argv) {
         // The explicit step is chosen when the case is read (docs/explicit.md#the-step).
         if (config.time.integrator == talus::Integrator::explicit_euler)
           std::cout << std::setprecision(3) << ", explicit steps of " << config.time.step << " s";
+        // `time.step: auto` picks its first step then (docs/solver.md#choosing-the-step).
+        if (config.time.auto_step)
+          std::cout << std::setprecision(3) << ", automatic steps from " << config.time.step << " s";
         std::cout << "\n";
       }
     } else {

@@ -47,6 +47,31 @@ void check_step_count(YamlSection& t, const TimeConfig& time) {
   }
 }
 
+// The first step of `time.step: auto` (docs/solver.md#choosing-the-step):
+// min(gravity_number sqrt(cell / |g|), courant cell / v0, end), v0 the fastest
+// initial body or obstacle velocity; infinite when nothing sets a time scale.
+double first_auto_step(const CaseConfig& c) {
+  const auto norm = [](const double* v, int n) {
+    double s = 0.0;
+    for (int i = 0; i < n; ++i) s += v[i] * v[i];
+    return std::sqrt(s);
+  };
+  const double g = norm(c.gravity.data(), c.dim);
+  double speed = 0.0;
+  for (const BodyConfig& b : c.bodies) {
+    if (!b.velocity.empty()) speed = std::max(speed, norm(b.velocity.data(), c.dim));
+    for (std::size_t p = 0; p + c.dim <= b.file_velocities.size(); p += c.dim)
+      speed = std::max(speed, norm(b.file_velocities.data() + p, c.dim));
+  }
+  for (const ObstacleConfig& o : c.obstacles)
+    if (!o.velocity.empty()) speed = std::max(speed, norm(o.velocity.data(), c.dim));
+  const double inf = std::numeric_limits<double>::infinity();
+  const double by_gravity = g > 0 ? c.time.gravity_number * std::sqrt(c.grid.cell_size / g) : inf;
+  const double by_speed = speed > 0 ? c.time.courant * c.grid.cell_size / speed : inf;
+  const double h = std::min(by_gravity, by_speed);
+  return std::isfinite(h) ? std::min(h, c.time.end) : h;
+}
+
 // A required text that must be one of `choices`.
 std::string required_choice(YamlSection& s, const std::string& key, const std::vector<std::string>& choices) {
   const std::string v = s.text(key);
@@ -324,9 +349,27 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
     if (t.has("theta") && explicit_steps) t.fail_value("theta", "is a key of the implicit integrator only");
     c.time.cfl = t.real("cfl", c.time.cfl);
     if (!(c.time.cfl > 0.0 && c.time.cfl <= 1.0)) t.fail_value("cfl", "must be in (0, 1]");
-    // The explicit step may be left out: it is then chosen from the CFL
-    // condition once the materials are known (explicit_step below).
-    c.time.step = explicit_steps && !t.has("step") ? 0.0 : t.positive("step", t.real("step"));
+    // The explicit step may be left out (or `auto`): it is then chosen from
+    // the CFL condition once the materials are known (explicit_step below).
+    // An implicit `step: auto` is chosen once the bodies and obstacles are
+    // known (auto_step below).
+    const bool auto_step = t.has("step") && t.written("step") == "auto";
+    if (auto_step) t.text("step");
+    if (t.has("step") && !auto_step) {
+      const std::string written = t.written("step");
+      char* end = nullptr;
+      std::strtod(written.c_str(), &end);
+      if (written.empty() || *end != '\0') t.fail_value("step", "must be a number of seconds, or auto");
+    }
+    c.time.auto_step = auto_step && !explicit_steps;
+    for (const char* key : {"gravity_number", "courant"})
+      if (t.has(key) && !c.time.auto_step) t.fail_value(key, "is a key of the implicit `step: auto` only");
+    c.time.gravity_number = t.real("gravity_number", c.time.gravity_number);
+    if (!(c.time.gravity_number > 0.0 && c.time.gravity_number <= 1.0))
+      t.fail_value("gravity_number", "must be in (0, 1]");
+    c.time.courant = t.real("courant", c.time.courant);
+    if (!(c.time.courant > 0.0 && c.time.courant <= 1.0)) t.fail_value("courant", "must be in (0, 1]");
+    c.time.step = auto_step || (explicit_steps && !t.has("step")) ? 0.0 : t.positive("step", t.real("step"));
     c.time.theta = t.real("theta", 1.0);
     if (!(c.time.theta >= 0.5 && c.time.theta <= 1.0))
       t.fail_value("theta", "must be in [0.5, 1]");
@@ -433,6 +476,14 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
   if (root.has("obstacles"))
     for (YamlSection& o : root.list("obstacles")) c.obstacles.push_back(parse_obstacle(o, c));
   check_bodies_against_obstacles(body_sections, c);
+  if (c.time.auto_step) {
+    YamlSection t = root.section("time");
+    c.time.step = first_auto_step(c);
+    if (!std::isfinite(c.time.step))
+      t.fail_value("step", "auto needs a time scale: gravity, a body's velocity or a moving obstacle; give "
+                           "time.step in seconds");
+    check_step_count(t, c.time);
+  }
 
   if (root.has("contact")) {
     YamlSection k = root.section("contact");

@@ -50,6 +50,13 @@ struct TimeConfig {
   // stability limit of the shape functions is refused.
   double cfl = 0.5;
   double theta = 1.0;           // Moreau-Jean theta in [1/2, 1]
+  // Implicit only, `step: auto` (docs/solver.md#choosing-the-step): the
+  // nominal step of every step is min(gravity_number sqrt(cell / |g|),
+  // courant cell / v_max), v_max the fastest particle or obstacle at the
+  // step's start; `step` then holds the first step.
+  bool auto_step = false;
+  double gravity_number = 0.05;
+  double courant = 0.5;
   double min_step_ratio = 1e-3;  // smallest cut-back step / step
   // end / step above this is an input error (an overridable guard against
   // runs that would never end, docs/case_file.md#time).

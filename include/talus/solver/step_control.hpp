@@ -21,6 +21,13 @@ class StepController {
   explicit StepController(double nominal_step) : nominal_(nominal_step), h_(nominal_step) {}
 
   double step() const { return h_; }
+  double nominal() const { return nominal_; }
+  // `time.step: auto` sets the nominal step before every step: a smaller one
+  // takes effect at once, a larger one is grown into as after a cut-back.
+  void set_nominal(double nominal) {
+    nominal_ = nominal;
+    h_ = std::min(h_, nominal);
+  }
   long patience() const { return patience_; }
 
   // The complete state, for checkpoints.
