@@ -425,6 +425,7 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
     store_last_acceleration(state);
     state.initial_energy = initial_energy_;
     state.energy_terms = energy_.values();
+    state.case_file = std::filesystem::absolute(config_.source_file).lexically_normal().string();
     state.fingerprint = config_.fingerprint;
     std::filesystem::create_directories(config_.checkpoint.directory);
     char name[64];

@@ -88,10 +88,77 @@ void write_text_attribute(hid_t location, const char* name, const std::string& t
   check(H5Awrite(attr.id, type.id, text.c_str()), name);
 }
 
+// What a dataset holds, for whoever opens the file (h5py, h5dump): text
+// attributes `units`, `component_order` (multi-column datasets) and
+// `description`. Written, never read back: the reader depends on the layout
+// of checkpoint_fields(), not on these.
+struct Description {
+  std::string units, component_order, description;
+};
+
+void describe(hid_t dataset, const Description& d) {
+  write_text_attribute(dataset, "units", d.units);
+  if (!d.component_order.empty()) write_text_attribute(dataset, "component_order", d.component_order);
+  write_text_attribute(dataset, "description", d.description);
+}
+
+// "x y" or "x y z".
+std::string axis_names(int dim) { return dim == 2 ? "x y" : "x y z"; }
+
+// A dim x dim matrix stored row-major: "xx xy yx yy" (first letter the row).
+std::string row_major_names(int dim) {
+  std::string text;
+  for (int a = 0; a < dim; ++a)
+    for (int b = 0; b < dim; ++b) text += std::string(text.empty() ? "" : " ") + "xyz"[a] + "xyz"[b];
+  return text;
+}
+
+// The stress columns in the order the code stores them: the inverse of
+// voigt_index (core/types.hpp), so that the attribute follows the storage.
+std::string voigt_names() {
+  std::string names[6];
+  for (int i = 0; i < 3; ++i)
+    for (int j = i; j < 3; ++j) names[voigt_index(i, j)] = std::string() + "xyz"[i] + "xyz"[j];
+  std::string text;
+  for (const std::string& n : names) text += (text.empty() ? "" : " ") + n;
+  return text;
+}
+
+template <int dim>
+Description describe_field(const std::string& name) {
+  const std::string per_thickness = dim == 2 ? " (2D: per m of thickness)" : "";
+  if (name == "position") return {"m", axis_names(dim), "particle position"};
+  if (name == "velocity") return {"m/s", axis_names(dim), "particle velocity"};
+  if (name == "affine_velocity")
+    return {"1/s", row_major_names(dim), "APIC affine velocity C_p, C_ab = dv_a/dx_b, row-major"};
+  if (name == "displacement") return {"m", axis_names(dim), "position minus initial position"};
+  if (name == "mass") return {dim == 2 ? "kg/m" : "kg", "", "particle mass" + per_thickness};
+  if (name == "initial_volume")
+    return {dim == 2 ? "m^2" : "m^3", "", "particle volume at seeding" + per_thickness};
+  if (name == "deformation_gradient")
+    return {"1", row_major_names(dim), "deformation gradient F, F_ab = dx_a/dX_b, row-major"};
+  if (name == "kirchhoff_stress")
+    return {"Pa", voigt_names(),
+            "Kirchhoff stress tau = det(F) sigma, tension positive, Voigt order (not ParaView's xx yy zz xy yz xz "
+            "of the .vtu files); in 2D plane strain zz is the out-of-plane stress and yz = xz = 0"};
+  if (name == "material_state")
+    return {"1", "", "internal variables of the material: drucker_prager column 0 the hardening variable alpha; "
+                     "unused columns 0"};
+  if (name == "cumulative_plastic_strain") return {"1", "", "accumulated equivalent plastic strain"};
+  if (name == "separation_strain") return {"1", "", "logarithmic volumetric strain of the voids opened at the apex"};
+  if (name == "material_id") return {"1", "", "index into the case's materials (from 0)"};
+  if (name == "body_id") return {"1", "", "index into the case's bodies (from 0)"};
+  if (name == "particle_id") return {"1", "", "global particle number, unique and stable"};
+  throw std::logic_error("no description of the checkpoint field " + name);
+}
+
 // 3: the case fingerprint of grid, gravity, boundaries, contact and
 // transfer from their parsed values (2026-11-25); 2: all sections as YAML
 // text, the same day; 1 (no attribute): before, without a fingerprint.
-constexpr int checkpoint_format = 5;  // 4: the energy balance; 5: materials fingerprinted from their parsed parameters (2026-11-25)
+// 4: the energy balance; 5: materials fingerprinted from their parsed
+// parameters (2026-11-25); 6: the self-describing attributes (units,
+// component order, case file).
+constexpr int checkpoint_format = 6;
 
 // A damaged checkpoint: what is wrong with it, for "not a valid talus checkpoint: <what>".
 struct Damaged : std::runtime_error {
@@ -203,6 +270,7 @@ void write_checkpoint(const std::string& path, const Particles<dim>& particles, 
                                      local > 0 ? data : &dummy);
       TALUS_PETSC(DMSwarmRestoreField(sw, f.swarm_name, &block, nullptr, &data));
       check(status, std::string("writing ") + f.file_name);
+      describe(dset.id, describe_field<dim>(f.file_name));
     }
     {
       // /grid: the Newton predictor's point accelerations, rows in rank order.
@@ -235,6 +303,13 @@ void write_checkpoint(const std::string& path, const Particles<dim>& particles, 
       };
       write_rows("accelerated_points", H5T_NATIVE_LLONG, 1, state.accelerated_points.data());
       write_rows("point_acceleration", H5T_NATIVE_DOUBLE, dim, state.point_acceleration.data());
+      const auto describe_grid = [&](const char* name, const Description& d) {
+        Handle dset(H5Dopen2(grid.id, name, H5P_DEFAULT), H5Dclose, name);
+        describe(dset.id, d);
+      };
+      describe_grid("accelerated_points",
+                    {"1", "", "global index of a grid point, x fastest: i + n_x (j + n_y k)"});
+      describe_grid("point_acceleration", {"m/s^2", axis_names(dim), "its acceleration in the last step"});
     }
     Handle run(H5Gcreate2(file.id, "run", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, "group run");
     write_attribute(run.id, "dimension", H5T_NATIVE_INT, dim);
@@ -262,6 +337,11 @@ void write_checkpoint(const std::string& path, const Particles<dim>& particles, 
                       state.energy_terms[k]);
     write_attribute(run.id, "checkpoint_format", H5T_NATIVE_INT, checkpoint_format);
     write_text_attribute(run.id, "talus_version", TALUS_VERSION);
+    write_text_attribute(run.id, "case_file", state.case_file);
+    write_text_attribute(run.id, "case_name", std::filesystem::path(state.case_file).stem().string());
+    write_text_attribute(run.id, "units",
+                         std::string("time, step_size, next_output: s; energy_*: ") + (dim == 2 ? "J/m" : "J") +
+                             "; counts: 1");
     for (const auto& [section, text] : state.fingerprint)
       write_text_attribute(run.id, ("case_" + section).c_str(), text);
     // The data reach the disk here at the latest: a full disk fails here, not

@@ -52,6 +52,9 @@ struct RunState {
   // since t = 0, in EnergyTerms::names() order.
   double initial_energy = 0.0;
   std::array<double, EnergyTerms::count> energy_terms{};
+  // Written for whoever opens the file, not read back: the case file the run
+  // was started with.
+  std::string case_file;
 };
 
 // What a restart checks the checkpoint's particles against: this case's
