@@ -12,7 +12,7 @@
 // A plastic, collapsing column is used so that the material state, the
 // Kirchhoff stress, the voids and the step controller all matter.
 // Then the self-describing attributes (issue 15, item 8): units, component
-// order, version, case file.
+// order, version, case file and the obstacle loads.
 #include <hdf5.h>
 
 #include <catch2/catch.hpp>
@@ -162,7 +162,7 @@ std::vector<std::string> words(const std::string& text) {
 std::string block_case(const std::string& directory) {
   return "grid: {lower: [0, 0, 0], upper: [0.4, 0.4, 0.4], cell_size: 0.1}\n"
          "time: {end: 0.02, step: 0.01}\n"
-         "output: {enabled: false}\n"
+         "output: {enabled: false, force_window: 0.015}\n"
          "checkpoint: {enabled: true, directory: " + directory + "}\n"
          "gravity: [0, 0, -9.81]\n"
          "materials: [{name: rock, model: linear_elastic, density: 2000, youngs_modulus: 1.0e7, poisson_ratio: 0.3}]\n"
@@ -172,7 +172,7 @@ std::string block_case(const std::string& directory) {
 
 }  // namespace
 
-TEST_CASE("a checkpoint describes itself: units, stress component order, version, case",
+TEST_CASE("a checkpoint describes itself: units, stress component order, version, case, obstacle loads",
           "[checkpoint]") {
   const std::string dir = "checkpoint_self_describing";
   std::filesystem::remove_all(dir);
@@ -197,6 +197,8 @@ TEST_CASE("a checkpoint describes itself: units, stress component order, version
   state.time = sim.time();
   state.step_size = 0.01;
   state.next_output = sim.time();
+  state.obstacle_loads = sim.obstacle_loads().state();
+  state.obstacle_names = {"floor"};
   const std::string stress_path = dir + "/known_stress.h5";
   write_checkpoint(stress_path, sim.particles(), state, PETSC_COMM_SELF);
 
@@ -254,6 +256,19 @@ TEST_CASE("a checkpoint describes itself: units, stress component order, version
   CHECK(text_attribute(run, "case_name") == "wall_case");
   CHECK(text_attribute(run, "units").find("time, step_size, next_output: s") != std::string::npos);
   H5Gclose(run);
+  // The obstacle loads: what the run holds, and their units.
+  const hid_t obstacles = H5Gopen2(run_file, "obstacles", H5P_DEFAULT);
+  REQUIRE(obstacles >= 0);
+  CHECK(text_attribute(obstacles, "names") == "floor\n");
+  const hid_t total_set = H5Dopen2(obstacles, "impulse_total", H5P_DEFAULT);
+  CHECK(text_attribute(total_set, "units") == "N s");
+  H5Dclose(total_set);
+  H5Gclose(obstacles);
+  const auto total = table<double>(run_file, "obstacles/impulse_total", H5T_NATIVE_DOUBLE, columns);
+  CHECK(columns == 3);
+  CHECK(total == sim.obstacle_loads().total_impulse());
+  // The floor carried the block: an impulse downwards (on the floor).
+  CHECK(total[2] < 0.0);
   H5Fclose(run_file);
   std::filesystem::remove_all(dir);
 }
