@@ -29,8 +29,9 @@ RECEIVED = [("obstacle_work", "obstacle work"), ("correction_work", "face correc
 
 
 def read(path):
+    # Column names without their units ("kinetic [J/m]" -> "kinetic").
     with open(path) as f:
-        rows = list(csv.DictReader(f))
+        rows = [{k.split(" [")[0]: v for k, v in r.items()} for r in csv.DictReader(f)]
     if not rows:
         sys.exit(f"{path}: no rows")
     missing = [k for k, _ in STACK + RECEIVED + [("gravitational", ""), ("balance_error", "")] if k not in rows[0]]

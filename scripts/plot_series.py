@@ -28,8 +28,9 @@ says otherwise. Gravity is taken to point down that axis.
 
 Wall forces: if the run has obstacles, talus writes obstacle_forces.csv next
 to the .pvd (one row per time step: the force the material exerts on each
-obstacle, N per m of thickness in 2D, N in 3D; docs/output.md). The script
-reads it (--forces) and adds, per obstacle NAME, two columns
+obstacle, N per m of thickness in 2D, N in 3D, then impulses and window
+averages; docs/output.md). The script reads the forces (--forces) and adds,
+per obstacle NAME, two columns
 
   NAME_force               N/m    |F| at the output's time (the step ending then;
                                   nan at t = 0, before the first step); N in 3D
@@ -87,15 +88,17 @@ def read(path):
 
 def read_forces(path):
     """The obstacle force table: times (steps), and per obstacle name its
-    force vectors (steps x dim)."""
+    force vectors (steps x dim). The table has four blocks of columns of
+    equal size (docs/output.md): the forces NAME_fx [unit], ..., then the
+    impulses, their running totals and the window forces; the first is read."""
     with open(path, newline="") as f:
         rows = list(csv.reader(f))
-    if not rows or rows[0][0] != "time":
-        sys.exit(f"plot_series: {path} is not an obstacle force table (no 'time' column)")
-    header = rows[0]
+    if not rows or rows[0][0].split(" [")[0] != "time" or (len(rows[0]) - 1) % 4:
+        sys.exit(f"plot_series: {path} is not an obstacle force table (no 'time' column and four blocks)")
+    header = [h.split(" [")[0] for h in rows[0]]  # names without their units
     data = np.array([[float(v) for v in r] for r in rows[1:] if len(r) == len(header)], dtype=float).reshape(-1, len(header))
     forces = {}
-    for k, column in enumerate(header[1:], start=1):
+    for k, column in enumerate(header[1:1 + (len(header) - 1) // 4], start=1):
         name, _, component = column.rpartition("_f")
         if not name or component not in ("x", "y", "z"):
             sys.exit(f"plot_series: {path}: column '{column}' is not NAME_fx, NAME_fy or NAME_fz")

@@ -77,6 +77,7 @@ def energy_error(out):
     worst, moved, first = 0.0, 0.0, None
     with open(path) as f:
         for row in csv.DictReader(f):
+            row = {k.split(" [")[0]: v for k, v in row.items()}  # names without their units
             k, g, e = float(row["kinetic"]), float(row["gravitational"]), float(row["elastic"])
             if first is None:
                 first = k + g + e

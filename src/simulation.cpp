@@ -119,6 +119,7 @@ Simulation<dim>::Simulation(const CaseConfig& config, MPI_Comm comm) : config_(c
       obstacles_.emplace_back(face);
     }
   obstacle_force_.assign(obstacles_.size(), Vector<dim>::Zero());
+  loads_ = ObstacleLoads(static_cast<int>(obstacles_.size()), dim, config.output.force_window);
   std::int64_t next_id = 0;
   for (std::size_t b = 0; b < config.bodies.size(); ++b) {
     const BodyConfig& body = config.bodies[b];
@@ -402,6 +403,7 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
   std::vector<std::string> energy_columns{"kinetic", "gravitational", "elastic"};
   for (const char* name : EnergyTerms::names()) energy_columns.push_back(name);
   energy_columns.push_back("balance_error");
+  for (std::string& c : energy_columns) c += dim == 2 ? " [J/m]" : " [J]";  // per m of thickness in 2D
   const auto energy_row = [&] {
     std::vector<double> row{particle_energy_.kinetic, particle_energy_.gravitational, particle_energy_.elastic};
     for (double v : energy_.values()) row.push_back(v);
@@ -456,6 +458,9 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
     store_last_acceleration(state);
     state.initial_energy = initial_energy_;
     state.energy_terms = energy_.values();
+    state.obstacle_loads = loads_.state();
+    for (const Obstacle<dim>& o : obstacles_) state.obstacle_names.push_back(o.name());
+    state.case_file = std::filesystem::absolute(config_.source_file).lexically_normal().string();
     state.fingerprint = config_.fingerprint;
     std::filesystem::create_directories(config_.checkpoint.directory);
     char name[64];
@@ -482,6 +487,7 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
   while (time_ < tc.end - eps) {
     if (tc.auto_step) control.set_nominal(auto_nominal_step());
     const double h_try = std::min(control.step(), tc.end - time_);
+    const double step_start = time_;
     // Balanced ranks: re-partition the grid when the particles have moved
     // too far out of balance (docs/parallel.md).
     RankLoad load;
@@ -527,7 +533,8 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
     summary.max_step_newton_iterations = std::max<long>(summary.max_step_newton_iterations, r.newton.iterations);
     summary.max_unbalance = std::max(summary.max_unbalance, r.newton.unbalance);
     control.succeeded(r.newton.iterations);
-    if (forces) guarded("appending to obstacle_forces.csv", [&] { forces->append(time_, force_row()); });
+    if (!obstacles_.empty()) loads_.add_step(step_start, time_, force_row());
+    if (forces) guarded("appending to obstacle_forces.csv", [&] { forces->append(time_, force_table_row()); });
     if (energy_table) guarded("appending to energy.csv", [&] { energy_table->append(time_, energy_row()); });
     const bool due = time_ >= next_output - eps || time_ >= tc.end - eps;
     if (vtk && due) {
@@ -562,6 +569,8 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
     if (signal_any) {
       summary.interrupted_by = signal_any;
       summary.energy_balance_error = energy_balance_error();
+      summary.peak_window_forces = peak_loads();
+      summary.force_window = loads_.window();
       if (config_.checkpoint.enabled) checkpoint();
       summary.wall_seconds = seconds_since(start);
       summary.rebalances = rebalances_ - rebalances_at_start;
@@ -577,6 +586,8 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
   summary.rebalances = rebalances_ - rebalances_at_start;
   summary.final_load = rank_load(comm_, particles_->local_count());
   summary.energy_balance_error = energy_balance_error();
+  summary.peak_window_forces = peak_loads();
+  summary.force_window = loads_.window();
   return summary;
 }
 

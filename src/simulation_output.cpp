@@ -1,6 +1,6 @@
 // What a step leaves for the output (docs/output.md): the contact forces per
-// obstacle and per point, the grid points of output.grid, and the rows of
-// obstacle_forces.csv.
+// obstacle and per point, the grid points of output.grid, the rows of
+// obstacle_forces.csv and the peak loads of the run summary.
 #include "talus/simulation.hpp"
 
 namespace talus {
@@ -87,11 +87,33 @@ std::vector<ContactSample<dim>> Simulation<dim>::contact_samples() const {
 
 template <int dim>
 std::vector<std::string> Simulation<dim>::force_columns() const {
+  // Four blocks of one column per obstacle and axis, the force first (as the
+  // table had before, so that its columns keep their places); N and N s in
+  // 3D, per m of thickness in 2D.
+  const std::string force = dim == 2 ? " [N/m]" : " [N]", impulse = dim == 2 ? " [N s/m]" : " [N s]";
+  const std::pair<const char*, std::string> blocks[4] = {
+      {"_f", force}, {"_impulse_", impulse}, {"_cumulative_impulse_", impulse}, {"_window_f", force}};
   std::vector<std::string> columns;
-  const char* axes[3] = {"_fx", "_fy", "_fz"};
-  for (const Obstacle<dim>& o : obstacles_)
-    for (int a = 0; a < dim; ++a) columns.push_back(o.name() + axes[a]);
+  for (const auto& [stem, unit] : blocks)
+    for (const Obstacle<dim>& o : obstacles_)
+      for (int a = 0; a < dim; ++a) columns.push_back(o.name() + stem + "xyz"[a] + unit);
   return columns;
+}
+
+template <int dim>
+std::vector<double> Simulation<dim>::force_table_row() const {
+  std::vector<double> row = force_row();
+  for (const auto* block : {&loads_.step_impulse(), &loads_.total_impulse(), &loads_.window_force()})
+    row.insert(row.end(), block->begin(), block->end());
+  return row;
+}
+
+template <int dim>
+std::vector<RunSummary::PeakLoad> Simulation<dim>::peak_loads() const {
+  std::vector<RunSummary::PeakLoad> peaks;
+  for (std::size_t o = 0; o < obstacles_.size(); ++o)
+    peaks.push_back({obstacles_[o].name(), loads_.peak_force()[o], loads_.peak_time()[o]});
+  return peaks;
 }
 
 template <int dim>
@@ -119,5 +141,9 @@ template std::vector<std::string> Simulation<2>::force_columns() const;
 template std::vector<std::string> Simulation<3>::force_columns() const;
 template std::vector<double> Simulation<2>::force_row() const;
 template std::vector<double> Simulation<3>::force_row() const;
+template std::vector<double> Simulation<2>::force_table_row() const;
+template std::vector<double> Simulation<3>::force_table_row() const;
+template std::vector<RunSummary::PeakLoad> Simulation<2>::peak_loads() const;
+template std::vector<RunSummary::PeakLoad> Simulation<3>::peak_loads() const;
 
 }  // namespace talus

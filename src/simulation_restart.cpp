@@ -6,6 +6,8 @@
 #include <cmath>
 #include <limits>
 
+#include "talus/io/yaml_section.hpp"
+
 namespace talus {
 
 template <int dim>
@@ -51,6 +53,7 @@ void Simulation<dim>::restart(const std::string& checkpoint_path) {
   }
   for (const Material* m : materials_) expected.density.push_back(m->density());
   for (const BodyConfig& b : config_.bodies) expected.body_material.push_back(b.material);
+  expected.obstacles = static_cast<int>(obstacles_.size());
   resume_ = std::make_unique<RunState>(read_checkpoint(checkpoint_path, *particles_, *grid_, expected, comm_));
   time_ = resume_->time;
   if (!restore) {
@@ -64,6 +67,17 @@ void Simulation<dim>::restart(const std::string& checkpoint_path) {
   energy_.plastic = t[0], energy_.contact = t[1], energy_.obstacle_work = t[2];
   energy_.faces = t[3], energy_.transfer = t[4], energy_.time_integration = t[5], energy_.correction_work = t[6];
   particle_energy_ = particle_energy();
+  // The obstacle loads go on from the checkpoint's: running impulses, peaks,
+  // and the steps inside the window, which must be the same window.
+  if (!obstacles_.empty()) {
+    const double stored = resume_->obstacle_loads.window;
+    if (stored != loads_.window())
+      throw InputError(checkpoint_path + ": output.force_window = " + number_text(loads_.window()) +
+                       " s, but the checkpoint's window averages were over " + number_text(stored) +
+                       " s and it holds only the steps of that window; restart with force_window: " +
+                       number_text(stored) + ", or run the case from t = 0");
+    loads_.restore(resume_->obstacle_loads);
+  }
 }
 
 template <int dim>

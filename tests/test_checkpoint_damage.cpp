@@ -51,11 +51,12 @@ const std::string& written_checkpoint() {
   return path;
 }
 
-// A copy of the checkpoint, changed by `damage` (given the open file).
-std::string damaged(const std::string& name, const std::function<void(hid_t)>& damage) {
+// A copy of the checkpoint (or of `source`), changed by `damage` (given the open file).
+std::string damaged(const std::string& name, const std::function<void(hid_t)>& damage, const std::string& source = "") {
   std::filesystem::create_directories(dir);
   const std::string path = dir + "/" + name + ".h5";
-  std::filesystem::copy_file(written_checkpoint(), path, std::filesystem::copy_options::overwrite_existing);
+  std::filesystem::copy_file(source.empty() ? written_checkpoint() : source, path,
+                             std::filesystem::copy_options::overwrite_existing);
   const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
   REQUIRE(file >= 0);
   damage(file);
@@ -212,5 +213,51 @@ TEST_CASE("a restart with another case is refused, naming what differs", "[check
     const RunSummary s = sim.run(nullptr);
     CHECK(sim.time() == Approx(0.03125));
     CHECK(s.steps > 4);
+  }
+}
+
+// The obstacle loads (/obstacles, docs/checkpoints.md): the column on a
+// frictional floor (one obstacle, the face y_min), with the default window
+// of 0.05 s or `window`.
+TEST_CASE("a checkpoint's obstacle loads are checked, and the force window must stay", "[checkpoint]") {
+  dir = "checkpoint_damage_loads";
+  const auto floor_case = [](const std::string& window) {
+    std::string text = column();
+    text.replace(text.find("output: {enabled: false}"), 24, "output: {enabled: false" + window + "}");
+    text.replace(text.find("boundaries: {y_min: fixed}"), 26,
+                 "boundaries: {y_min: {condition: frictional, friction: 0.4}}");
+    return text;
+  };
+  static const std::string path = [&] {
+    std::filesystem::remove_all(dir);
+    Simulation<2> run(testing::case_from_yaml(floor_case("")), PETSC_COMM_SELF);
+    const RunSummary s = run.run(nullptr);
+    REQUIRE(std::filesystem::exists(s.last_checkpoint));
+    return s.last_checkpoint;
+  }();
+  const std::string invalid = "not a valid talus checkpoint: ";
+  SECTION("no /obstacles") {
+    restart_fails(damaged("no_loads", [](hid_t f) { REQUIRE(H5Ldelete(f, "obstacles", H5P_DEFAULT) >= 0); }, path),
+                  invalid + "no group obstacles", floor_case(""));
+  }
+  SECTION("a NaN running impulse") {
+    const std::string damaged_path = damaged("nan_impulse", [](hid_t f) {
+      const hid_t d = H5Dopen2(f, "obstacles/impulse_total", H5P_DEFAULT);
+      REQUIRE(d >= 0);
+      const double values[2] = {std::numeric_limits<double>::quiet_NaN(), 0.0};
+      REQUIRE(H5Dwrite(d, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, values) >= 0);
+      H5Dclose(d);
+    }, path);
+    restart_fails(damaged_path, invalid + "a non-finite value in dataset obstacles/impulse_total", floor_case(""));
+  }
+  SECTION("another force window: the checkpoint holds only the steps of its own") {
+    restart_fails(path, "output.force_window = 0.1 s, but the checkpoint's window averages were over 0.05 s",
+                  floor_case(", force_window: 0.1"));
+  }
+  SECTION("the same window continues, from the stored running impulse") {
+    Simulation<2> sim(testing::case_from_yaml(floor_case(", force_window: 0.05")), PETSC_COMM_SELF);
+    REQUIRE_NOTHROW(sim.restart(path));
+    const double floor_impulse = sim.obstacle_loads().total_impulse()[1];
+    CHECK(floor_impulse < 0.0);  // the column pushed the floor down for 4 steps
   }
 }

@@ -312,11 +312,14 @@ done
 # obstacle_forces.csv: one row per step; at the end the floor carries the
 # block's weight m g (m from the particle masses) to 1e-6; the contact points
 # sum to the table's force; the .vtp geometry equals the closed-form clip to
-# the grid box. A restart continues the table and the two series exactly.
+# the grid box; the impulse, running total and window-force columns are the
+# force x step, their sum and the window's mean (the window, 0.035 s, no
+# multiple of the step, cuts steps in half). A restart continues the table
+# (running totals and window included) and the two series exactly.
 cat > obs.yaml <<EOF
 grid: {lower: [0.0, 0.0], upper: [1.0, 0.6], cell_size: 0.05}
 time: {end: 0.2, step: 0.01}
-output: {directory: $work/obs, interval: 0.05}
+output: {directory: $work/obs, interval: 0.05, force_window: 0.035}
 checkpoint: {interval: 7}
 gravity: [0.0, -9.81]
 materials:
@@ -335,6 +338,7 @@ cp -r obs obs_full
 # table's last line: rows after t = 0.07 are dropped and written again, the
 # torn line is gone; on the same rank count the run repeats bit for bit.
 printf '0.21,-1569.6,0' >> obs/obstacle_forces.csv
+cp obs/checkpoint_000007.h5 obs_checkpoint_000007.h5  # for the attributes, below: the restart rewrites it
 "$talus" run obs.yaml --restart obs/checkpoint_000007.h5 > obs_restart.log 2>&1 ||
   { echo "FAIL: obstacle restart"; cat obs_restart.log; exit 1; }
 for f in obstacle_forces.csv obstacles.pvd contacts.pvd particles.pvd; do
@@ -348,7 +352,7 @@ mpiexec -n 2 "$talus" run obs2.yaml > obs2.log 2>&1 || { echo "FAIL: obstacle ca
 mpiexec -n 2 "$talus" run obs.yaml --restart obs/checkpoint_000014.h5 > obs_restart2.log 2>&1 ||
   { echo "FAIL: obstacle restart on 2 ranks"; cat obs_restart2.log; exit 1; }
 /usr/bin/python3 - "$work" <<'PY'
-import csv, glob, os, sys, xml.etree.ElementTree as ET
+import csv, glob, json, os, sys, xml.etree.ElementTree as ET
 import numpy as np
 import vtk
 from vtk.util.numpy_support import vtk_to_numpy
@@ -368,10 +372,70 @@ def read(reader, path):
     return reader.GetOutput()
 
 out = os.path.join(work, "obs_full")
-header, f = table(os.path.join(out, "obstacle_forces.csv"))
-assert header == ["time", "floor_fx", "floor_fy", "ramp_fx", "ramp_fy", "wall_fx", "wall_fy", "x_min_fx", "x_min_fy"], header
-assert f.shape == (20, 9), f.shape                          # one row per step of 0.01 s
+header, table_all = table(os.path.join(out, "obstacle_forces.csv"))
+names = ["floor", "ramp", "wall", "x_min"]
+blocks = [("_f{}", "N/m"), ("_impulse_{}", "N s/m"), ("_cumulative_impulse_{}", "N s/m"), ("_window_f{}", "N/m")]
+assert header == ["time [s]"] + [f"{n}{stem.format(a)} [{unit}]" for stem, unit in blocks for n in names for a in "xy"], header
+assert table_all.shape == (20, 33), table_all.shape         # one row per step of 0.01 s, 4 blocks of 8
+f = table_all[:, :9]                                        # time and the forces
 assert np.abs(f[:, 0] - 0.01 * np.arange(1, 21)).max() < 1e-12 and np.all(np.diff(f[:, 0]) > 0), f[:, 0]
+
+# The loads for wall design (docs/output.md): per step the impulse F h, with
+# h read from the times (0 before the first row); its running total; the
+# window force, here computed independently as the exact mean over (t - T, t]
+# of the piecewise-constant step force: (J(t) - J(t - T)) / min(T, t), J the
+# running impulse interpolated linearly within a step. Tolerances: round-off
+# of a product (impulse), of a sum of 20 terms (total), of the difference of
+# two totals of up to 0.2 s against a window of 0.035 s (window).
+T = 0.035
+t = table_all[:, 0]
+h = np.diff(np.concatenate(([0.0], t)))
+F, I, J, W = (table_all[:, 1 + 8 * b:9 + 8 * b] for b in range(4))
+scale = np.abs(F).max()
+impulse_error = np.abs(I - F * h[:, None]).max() / (scale * h.max())
+total_error = np.abs(J - np.cumsum(I, axis=0)).max() / (scale * t[-1])
+J0 = np.vstack([np.zeros(8), J])
+t0 = np.concatenate(([0.0], t))
+want = np.empty_like(W)
+for c in range(8):
+    want[:, c] = (J[:, c] - np.interp(np.maximum(t - T, 0.0), t0, J0[:, c])) / np.minimum(T, t)
+window_error = np.abs(W - want).max() / scale
+assert impulse_error <= 1e-14, impulse_error
+assert total_error <= 1e-14, total_error
+assert window_error <= 1e-12, window_error
+# The window is not the step force (the block settles on the floor: its force
+# varies from step to step), so the comparison above is not vacuous.
+assert np.abs(W[:, 1] - F[:, 1]).max() > 1e-3 * scale, np.abs(W[:, 1] - F[:, 1]).max()
+# The run summary's peak: the largest |window force| of each obstacle and its time.
+def summary(log):
+    line = [l for l in open(os.path.join(work, log)) if l.startswith("talus-summary: ")][-1]
+    return json.loads(line.split(" ", 1)[1])
+s = summary("obs.log")
+assert s["force_window"] == T and list(s["peak_window_force"]) == names, s
+for k, n in enumerate(names):
+    magnitude = np.hypot(W[:, 2 * k], W[:, 2 * k + 1])
+    peak = s["peak_window_force"][n]
+    assert peak["force"] == magnitude.max(), (n, peak, magnitude.max())
+    assert peak["time"] == (t[np.argmax(magnitude)] if magnitude.max() > 0 else 0.0), (n, peak)
+assert s["peak_window_force"]["floor"]["force"] > 0 and s["peak_window_force"]["wall"]["force"] == 0.0
+# The restart from step 7 reports the same peaks as the run straight through.
+assert summary("obs_restart.log")["peak_window_force"] == s["peak_window_force"]
+print(f"cli ok: loads, impulse = F h to {impulse_error:.1e}, total = cumulative sum to {total_error:.1e}, "
+      f"window force = mean over {T} s to {window_error:.1e} (relative); floor peak "
+      f"{s['peak_window_force']['floor']['force']:.6g} N/m at t = {s['peak_window_force']['floor']['time']}")
+
+# The checkpoint of step 7 describes itself (docs/checkpoints.md) and holds
+# the loads the table showed then: the running totals of row 7.
+import h5py
+with h5py.File(os.path.join(work, "obs_checkpoint_000007.h5"), "r") as c:
+    run = c["run"].attrs
+    assert run["case_file"].decode() == os.path.join(work, "obs.yaml") and run["case_name"].decode() == "obs", dict(run)
+    assert c["particles/kirchhoff_stress"].attrs["component_order"].decode() == "xx yy zz yz xz xy"
+    assert c["particles/position"].attrs["units"].decode() == "m" and c["particles/mass"].attrs["units"].decode() == "kg/m"
+    o = c["obstacles"]
+    assert o.attrs["names"].decode().split() == names and o.attrs["force_window"] == T
+    assert o["impulse_total"].attrs["units"].decode() == "N s/m"
+    assert np.array_equal(o["impulse_total"][:].ravel(), J[6]), (o["impulse_total"][:], J[6])
 
 # The block's weight, from the particle masses of the last output.
 particles = series(os.path.join(out, "particles.pvd"))
@@ -467,8 +531,10 @@ print(f"cli ok: obstacles, {len(f)} rows; floor force {-last[2]!r} N/m vs m g = 
 worst = 0.0
 for run in ("obs2", "obs"):
     header2, f2 = table(os.path.join(work, run, "obstacle_forces.csv"))
-    assert header2 == header and f2.shape == f.shape and np.all(f2[:, 0] == f[:, 0]), (run, f2.shape)
-    worst = max(worst, np.abs(f2[:, 1:] - f[:, 1:]).max() / W)
+    assert header2 == header and f2.shape == table_all.shape and np.all(f2[:, 0] == f[:, 0]), (run, f2.shape)
+    # All four blocks: forces and window forces scale with W, impulses and
+    # their totals with W times a step or t <= 0.2 s, so W bounds them all.
+    worst = max(worst, np.abs(f2[:, 1:] - table_all[:, 1:]).max() / W)
     assert worst <= 1e-8, (run, worst)
 out2 = os.path.join(work, "obs2")
 with open(os.path.join(out2, "contacts_000000.pvtu")) as fh:
@@ -506,9 +572,13 @@ obstacles:
   - {name: ground, type: terrain, file: map.asc, friction: 0.6}
 EOF
 "$talus" run obs3.yaml > obs3.log 2>&1 || { echo "FAIL: 3D obstacle case"; cat obs3.log; exit 1; }
-head -1 "$work/obs3/obstacle_forces.csv" | grep -qx \
-  'time,floor_fx,floor_fy,floor_fz,tilted_fx,tilted_fy,tilted_fz,wall_fx,wall_fy,wall_fz,ground_fx,ground_fy,ground_fz' ||
+head -1 "$work/obs3/obstacle_forces.csv" | cut -d, -f1-13 | grep -qx \
+  'time \[s\],floor_fx \[N\],floor_fy \[N\],floor_fz \[N\],tilted_fx \[N\],tilted_fy \[N\],tilted_fz \[N\],wall_fx \[N\],wall_fy \[N\],wall_fz \[N\],ground_fx \[N\],ground_fy \[N\],ground_fz \[N\]' ||
   { echo "FAIL: 3D obstacle_forces.csv header"; head -1 "$work/obs3/obstacle_forces.csv"; exit 1; }
+for column in 'ground_impulse_z \[N s\]' 'floor_cumulative_impulse_x \[N s\]' 'ground_window_fz \[N\]'; do
+  head -1 "$work/obs3/obstacle_forces.csv" | tr , '\n' | grep -qx "$column" ||
+    { echo "FAIL: 3D obstacle_forces.csv has no column $column"; head -1 "$work/obs3/obstacle_forces.csv"; exit 1; }
+done
 /usr/bin/python3 - "$work/obs3" <<'PY'
 import sys
 import numpy as np
@@ -579,7 +649,7 @@ PY
 # so sum_p m_p v_p = sum_i m_i v_i^{n+1}), both to round-off; the grid's
 # contact forces are those of contacts.pvd. Cases without output.grid (all
 # above) write no grid file.
-sed -e "s#output: {directory: $work/obs, interval: 0.05}#output: {directory: $work/grid, interval: 0.05, grid: true}#" \
+sed -e "s#output: {directory: $work/obs, interval: 0.05, force_window: 0.035}#output: {directory: $work/grid, interval: 0.05, grid: true}#" \
   -e 's#upper: \[0.7, 0.3\]}}#upper: [0.7, 0.3]}, velocity: [0.5, 0.0]}#' obs.yaml > grid.yaml
 grep -q 'grid: true' grid.yaml && grep -q 'velocity: \[0.5, 0.0\]' grid.yaml || { echo "FAIL: grid.yaml"; exit 1; }
 "$talus" run grid.yaml > grid.log 2>&1 || { echo "FAIL: grid output case"; cat grid.log; exit 1; }

@@ -1,7 +1,9 @@
 // Obstacle geometry (src/contact/obstacle.cpp): the signed gap and the
 // outward normal of half-planes, boxes and terrains against closed forms, in
 // 2D and 3D, fixed and moving; and a 3D terrain read from an ESRI ASCII grid
-// by the case loader (north row first) giving the same closed form.
+// by the case loader (north row first) giving the same closed form. The
+// loads on an obstacle over time (src/io/obstacle_loads.cpp): impulses,
+// their running total and the window-averaged force against closed forms.
 #include <catch2/catch.hpp>
 
 #include <algorithm>
@@ -15,6 +17,7 @@
 
 #include "talus/contact/obstacle.hpp"
 #include "talus/io/config.hpp"
+#include "talus/io/obstacle_loads.hpp"
 
 using namespace talus;
 
@@ -268,4 +271,96 @@ TEST_CASE("2D terrain polyline: the local search gives the full scan's gap and n
     ++checked;
   }
   CHECK(checked == 3000);
+}
+
+TEST_CASE("obstacle loads: a constant force gives impulse F h, total F t, window force F", "[obstacle][loads]") {
+  // Steps of uneven size (a cut-back and regrowth); the window T = 0.05 s is
+  // no multiple of them, so steps straddle its start. Every quantity is a
+  // closed form of F and t; the tolerance is round-off of sums of ~20 terms.
+  const std::vector<double> force{300.0, -400.0};  // |F| = 500
+  ObstacleLoads loads(1, 2, 0.05);
+  double t = 0.0;
+  for (double h : {0.01, 0.01, 0.005, 0.0025, 0.0025, 0.005, 0.01, 0.02, 0.02, 0.01, 0.01, 0.01}) {
+    loads.add_step(t, t + h, force);
+    const double hk = (t + h) - t;
+    t += h;
+    for (int a = 0; a < 2; ++a) {
+      CHECK(loads.step_impulse()[a] == force[a] * hk);
+      CHECK(std::abs(loads.total_impulse()[a] - force[a] * t) <= 1e-14 * 500.0 * t);
+      CHECK(std::abs(loads.window_force()[a] - force[a]) <= 1e-13 * 500.0);
+    }
+    CHECK(std::abs(loads.peak_force()[0] - 500.0) <= 1e-13 * 500.0);
+  }
+}
+
+TEST_CASE("obstacle loads: one impact's impulse I spread over the window, I/T, then partly, then gone",
+          "[obstacle][loads]") {
+  // Steps of 0.01 s, one impact in the step (0.10, 0.11] of impulse 2 N s/m
+  // (force 200 N/m), nothing else; window T = 0.025 s. The window (t - T, t]
+  // holds the whole impact at t = 0.11 and 0.12 (force I/T = 80 N/m), half
+  // of its step at t = 0.13 (window from 0.105: 40 N/m), none from 0.14 on.
+  // The step force peaks at 200 N/m; the window force at 80 N/m, first at
+  // t = 0.11. The running total stays I after the impact.
+  ObstacleLoads loads(2, 2, 0.025);
+  std::vector<std::pair<double, double>> window;  // (t, window force x of obstacle 1)
+  for (int k = 0; k < 20; ++k) {
+    const double start = 0.01 * k, end = 0.01 * (k + 1);
+    std::vector<double> force{0.0, 0.0, k == 10 ? 200.0 : 0.0, 0.0};  // obstacle 0 untouched
+    loads.add_step(start, end, force);
+    window.emplace_back(end, loads.window_force()[2]);
+    CHECK(loads.window_force()[0] == 0.0);
+    CHECK(loads.total_impulse()[2] == Approx(k >= 10 ? 2.0 : 0.0).margin(1e-13));  // 200 N/m x (0.11 - 0.10)
+  }
+  const double tol = 1e-12 * 80.0;  // round-off of t - T and of the fraction
+  for (const auto& [t, f] : window) {
+    INFO("t = " << t << ": window force " << f);
+    const double want = t < 0.105 ? 0.0 : t < 0.125 ? 80.0 : t < 0.135 ? 40.0 : 0.0;
+    CHECK(std::abs(f - want) <= tol);
+  }
+  CHECK(std::abs(loads.peak_force()[1] - 80.0) <= tol);  // per obstacle: obstacle 1
+  CHECK(std::abs(loads.peak_time()[1] - 0.11) <= 1e-15);
+  CHECK(loads.peak_force()[0] == 0.0);
+}
+
+TEST_CASE("obstacle loads: before a full window the mean since t = 0, with a window 0 or shorter than a step the step force",
+          "[obstacle][loads]") {
+  ObstacleLoads long_window(1, 3, 1.0), none(1, 3, 0.0);
+  // 1 N for 0.1 s, then 3 N for 0.1 s: the mean since 0 at t = 0.2 is 2 N.
+  long_window.add_step(0.0, 0.1, {1.0, 0.0, 0.0});
+  long_window.add_step(0.1, 0.2, {3.0, 0.0, 0.0});
+  CHECK(std::abs(long_window.window_force()[0] - 2.0) <= 1e-15 * 2.0 / 0.2);
+  none.add_step(0.0, 0.1, {1.0, 2.0, 3.0});
+  none.add_step(0.1, 0.2, {3.0, -2.0, 1.0});
+  CHECK(none.window_force() == std::vector<double>{3.0, -2.0, 1.0});
+  CHECK(none.peak_force()[0] == Approx(std::sqrt(14.0)).epsilon(1e-15));
+  CHECK(none.peak_time()[0] == 0.1);  // both steps reach sqrt(14): the first counts
+  // A window shorter than the step lies within it: the step's force, also
+  // for a window below the resolution of the time.
+  for (double window : {0.001, 4.9e-324}) {
+    ObstacleLoads short_window(1, 3, window);
+    short_window.add_step(0.0, 0.1, {1.0, 2.0, 3.0});
+    short_window.add_step(0.1, 0.2, {3.0, -2.0, 1.0});
+    CHECK(short_window.window_force() == std::vector<double>{3.0, -2.0, 1.0});
+  }
+}
+
+TEST_CASE("obstacle loads: restored from their state, they continue bit for bit", "[obstacle][loads]") {
+  // What a checkpoint stores (ObstacleLoads::State) is all a restart needs:
+  // 30 steps straight through against 17, a copy through the state, 13 more.
+  const auto force = [](int k) {
+    return std::vector<double>{std::sin(0.7 * k) * 1e3, std::cos(0.3 * k) * 5e2, k % 7 == 0 ? 4e4 : 0.0, 1.0};
+  };
+  const auto step = [](int k) { return 0.003 * k + 0.0001 * (k % 3); };  // uneven steps
+  ObstacleLoads whole(2, 2, 0.02), first(2, 2, 0.02);
+  for (int k = 0; k < 30; ++k) whole.add_step(step(k), step(k + 1), force(k));
+  for (int k = 0; k < 17; ++k) first.add_step(step(k), step(k + 1), force(k));
+  ObstacleLoads second(2, 2, 0.02);
+  second.restore(first.state());
+  for (int k = 17; k < 30; ++k) second.add_step(step(k), step(k + 1), force(k));
+  CHECK(second.total_impulse() == whole.total_impulse());
+  CHECK(second.window_force() == whole.window_force());
+  CHECK(second.peak_force() == whole.peak_force());
+  CHECK(second.peak_time() == whole.peak_time());
+  ObstacleLoads other_window(2, 2, 0.03);
+  CHECK_THROWS_AS(other_window.restore(first.state()), std::invalid_argument);
 }

@@ -137,8 +137,9 @@ import numpy as np
 work = sys.argv[1]
 with open(os.path.join(work, "wall/obstacle_forces.csv")) as f:
     table = list(csv.reader(f))
-assert table[0] == ["time", "wall_fx", "wall_fy", "y_min_fx", "y_min_fy"], table[0]
-F = np.array(table[1:], dtype=float)
+assert table[0][:5] == ["time [s]", "wall_fx [N/m]", "wall_fy [N/m]", "y_min_fx [N/m]", "y_min_fy [N/m]"], table[0]
+assert len(table[0]) == 17, table[0]          # then impulses, running totals and window forces (docs/output.md)
+F = np.array(table[1:], dtype=float)[:, :5]   # time and the forces
 assert F.shape == (120, 5) and np.all(np.diff(F[:, 0]) > 0), F.shape       # 0.3 s in steps of 0.0025 s
 with open(os.path.join(work, "wall_series.csv")) as f:
     rows = list(csv.DictReader(f))

@@ -44,6 +44,15 @@ struct RunSummary {
   long rebalances = 0;
   double worst_imbalance = 1.0;
   RankLoad final_load;
+  // Per obstacle (docs/output.md#obstacle_forcescsv-the-force-on-each-obstacle):
+  // the largest magnitude of the force averaged over output.force_window
+  // since t = 0 (N/m in 2D, N in 3D) and the time it was reached.
+  struct PeakLoad {
+    std::string obstacle;
+    double force = 0, time = 0;
+  };
+  std::vector<PeakLoad> peak_window_forces;
+  double force_window = 0;  // s
 };
 
 template <int dim>
@@ -97,6 +106,9 @@ class Simulation {
   // sum_i r_i / h (N, per unit thickness in 2D), summed over all ranks; the
   // force the body exerts on the obstacle is its negative.
   const std::vector<Vector<dim>>& obstacle_forces() const { return obstacle_force_; }
+  // The loads on the obstacles since t = 0, on the obstacles (-obstacle_forces()):
+  // impulses, their running totals, the window-averaged force and its peak.
+  const ObstacleLoads& obstacle_loads() const { return loads_; }
   // Contact points of the last accepted step on this rank: position, force r_i / h.
   struct NodalContact {
     Vector<dim> position, force;
@@ -145,11 +157,15 @@ class Simulation {
                           const MomentumSystem<dim>* system, double h);
   void record_initial_grid_points();  // P2G at the current particle state, v^n
   // Output of the obstacles (docs/output.md#obstacles-and-contacts): the
-  // contact points of the last step as written, the columns of
-  // obstacle_forces.csv and its row (the force on each obstacle, -obstacle_forces()).
+  // contact points of the last step as written, the force on each obstacle
+  // (-obstacle_forces()), and the columns of obstacle_forces.csv and its row
+  // (that force, then the impulses, their totals and the window force of loads_).
   std::vector<ContactSample<dim>> contact_samples() const;
-  std::vector<std::string> force_columns() const;
   std::vector<double> force_row() const;
+  std::vector<std::string> force_columns() const;
+  std::vector<double> force_table_row() const;
+  // The peaks of loads_, by obstacle name.
+  std::vector<RunSummary::PeakLoad> peak_loads() const;
 
   CaseConfig config_;
   MPI_Comm comm_;
@@ -160,6 +176,7 @@ class Simulation {
   std::vector<Tangent> compliance_;  // C^-1 per material (the energy balance)
   std::vector<Obstacle<dim>> obstacles_;
   std::vector<Vector<dim>> obstacle_force_;
+  ObstacleLoads loads_{0, dim, 0.0};  // set for the obstacles in the constructor
   std::vector<NodalContact> nodal_contacts_;
   PointCloud grid_points_;
   Vector<dim> gravity_;

@@ -59,6 +59,12 @@ int run_case(const talus::CaseConfig& config, const std::string& restart, int ra
                 << " to " << s.final_load.max << " (mean " << s.final_load.mean() << ", max/mean "
                 << s.final_load.imbalance() << "; worst during the run " << s.worst_imbalance << "), "
                 << s.rebalances << " re-partitions\n";
+    // Wall design: the largest force averaged over output.force_window on
+    // each obstacle (docs/output.md#obstacle_forcescsv-the-force-on-each-obstacle).
+    for (const auto& p : s.peak_window_forces)
+      std::cout << std::setprecision(6) << "talus: peak force on " << p.obstacle << " averaged over "
+                << s.force_window << " s: " << p.force << (dim == 2 ? " N/m" : " N") << " at t = " << p.time
+                << " s\n";
     if (s.interrupted_by)
       std::cout << "talus: stopped by signal " << s.interrupted_by << " at t = " << sim.time()
                 << (s.last_checkpoint.empty() ? std::string() : "; continue with --restart " + s.last_checkpoint)
@@ -70,6 +76,13 @@ int run_case(const talus::CaseConfig& config, const std::string& restart, int ra
   getrusage(RUSAGE_SELF, &usage);
   double rss_mb = usage.ru_maxrss / 1024.0, max_rss_mb = 0.0;
   MPI_Reduce(&rss_mb, &max_rss_mb, 1, MPI_DOUBLE, MPI_MAX, 0, PETSC_COMM_WORLD);
+  // {"wall": {"force": F, "time": t}, ...} in full precision (obstacle names
+  // are letters, digits, _ - and .: nothing to escape).
+  std::ostringstream peaks;
+  peaks << std::setprecision(17);
+  for (const auto& p : s.peak_window_forces)
+    peaks << (&p == s.peak_window_forces.data() ? "" : ", ") << "\"" << p.obstacle << "\": {\"force\": " << p.force
+          << ", \"time\": " << p.time << "}";
   if (rank == 0)
     std::cout << std::setprecision(6) << "talus-summary: {\"dim\": " << dim
               << ", \"particles\": " << particles << ", \"steps\": " << s.steps
@@ -83,7 +96,8 @@ int run_case(const talus::CaseConfig& config, const std::string& restart, int ra
               << ", \"ranks\": " << s.final_load.ranks << ", \"rebalances\": " << s.rebalances
               << ", \"worst_imbalance\": " << s.worst_imbalance << ", \"final_min_rank_particles\": "
               << s.final_load.min << ", \"final_max_rank_particles\": " << s.final_load.max
-              << ", \"peak_rss_mb\": " << max_rss_mb << "}\n";
+              << ", \"peak_rss_mb\": " << max_rss_mb << ", \"force_window\": " << s.force_window
+              << ", \"peak_window_force\": {" << peaks.str() << "}}\n";
   return s.interrupted_by ? 128 + s.interrupted_by : 0;
 }
 

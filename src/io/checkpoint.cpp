@@ -88,10 +88,77 @@ void write_text_attribute(hid_t location, const char* name, const std::string& t
   check(H5Awrite(attr.id, type.id, text.c_str()), name);
 }
 
+// What a dataset holds, for whoever opens the file (h5py, h5dump): text
+// attributes `units`, `component_order` (multi-column datasets) and
+// `description`. Written, never read back: the reader depends on the layout
+// of checkpoint_fields(), not on these.
+struct Description {
+  std::string units, component_order, description;
+};
+
+void describe(hid_t dataset, const Description& d) {
+  write_text_attribute(dataset, "units", d.units);
+  if (!d.component_order.empty()) write_text_attribute(dataset, "component_order", d.component_order);
+  write_text_attribute(dataset, "description", d.description);
+}
+
+// "x y" or "x y z".
+std::string axis_names(int dim) { return dim == 2 ? "x y" : "x y z"; }
+
+// A dim x dim matrix stored row-major: "xx xy yx yy" (first letter the row).
+std::string row_major_names(int dim) {
+  std::string text;
+  for (int a = 0; a < dim; ++a)
+    for (int b = 0; b < dim; ++b) text += std::string(text.empty() ? "" : " ") + "xyz"[a] + "xyz"[b];
+  return text;
+}
+
+// The stress columns in the order the code stores them: the inverse of
+// voigt_index (core/types.hpp), so that the attribute follows the storage.
+std::string voigt_names() {
+  std::string names[6];
+  for (int i = 0; i < 3; ++i)
+    for (int j = i; j < 3; ++j) names[voigt_index(i, j)] = std::string() + "xyz"[i] + "xyz"[j];
+  std::string text;
+  for (const std::string& n : names) text += (text.empty() ? "" : " ") + n;
+  return text;
+}
+
+template <int dim>
+Description describe_field(const std::string& name) {
+  const std::string per_thickness = dim == 2 ? " (2D: per m of thickness)" : "";
+  if (name == "position") return {"m", axis_names(dim), "particle position"};
+  if (name == "velocity") return {"m/s", axis_names(dim), "particle velocity"};
+  if (name == "affine_velocity")
+    return {"1/s", row_major_names(dim), "APIC affine velocity C_p, C_ab = dv_a/dx_b, row-major"};
+  if (name == "displacement") return {"m", axis_names(dim), "position minus initial position"};
+  if (name == "mass") return {dim == 2 ? "kg/m" : "kg", "", "particle mass" + per_thickness};
+  if (name == "initial_volume")
+    return {dim == 2 ? "m^2" : "m^3", "", "particle volume at seeding" + per_thickness};
+  if (name == "deformation_gradient")
+    return {"1", row_major_names(dim), "deformation gradient F, F_ab = dx_a/dX_b, row-major"};
+  if (name == "kirchhoff_stress")
+    return {"Pa", voigt_names(),
+            "Kirchhoff stress tau = det(F) sigma, tension positive, Voigt order (not ParaView's xx yy zz xy yz xz "
+            "of the .vtu files); in 2D plane strain zz is the out-of-plane stress and yz = xz = 0"};
+  if (name == "material_state")
+    return {"1", "", "internal variables of the material: drucker_prager column 0 the hardening variable alpha; "
+                     "unused columns 0"};
+  if (name == "cumulative_plastic_strain") return {"1", "", "accumulated equivalent plastic strain"};
+  if (name == "separation_strain") return {"1", "", "logarithmic volumetric strain of the voids opened at the apex"};
+  if (name == "material_id") return {"1", "", "index into the case's materials (from 0)"};
+  if (name == "body_id") return {"1", "", "index into the case's bodies (from 0)"};
+  if (name == "particle_id") return {"1", "", "global particle number, unique and stable"};
+  throw std::logic_error("no description of the checkpoint field " + name);
+}
+
 // 3: the case fingerprint of grid, gravity, boundaries, contact and
 // transfer from their parsed values (2026-11-25); 2: all sections as YAML
 // text, the same day; 1 (no attribute): before, without a fingerprint.
-constexpr int checkpoint_format = 5;  // 4: the energy balance; 5: materials fingerprinted from their parsed parameters (2026-11-25)
+// 4: the energy balance; 5: materials fingerprinted from their parsed
+// parameters (2026-11-25); 6: /obstacles (the obstacle loads) and the
+// self-describing attributes (units, component order, case file).
+constexpr int checkpoint_format = 6;
 
 // A damaged checkpoint: what is wrong with it, for "not a valid talus checkpoint: <what>".
 struct Damaged : std::runtime_error {
@@ -203,6 +270,7 @@ void write_checkpoint(const std::string& path, const Particles<dim>& particles, 
                                      local > 0 ? data : &dummy);
       TALUS_PETSC(DMSwarmRestoreField(sw, f.swarm_name, &block, nullptr, &data));
       check(status, std::string("writing ") + f.file_name);
+      describe(dset.id, describe_field<dim>(f.file_name));
     }
     {
       // /grid: the Newton predictor's point accelerations, rows in rank order.
@@ -235,6 +303,62 @@ void write_checkpoint(const std::string& path, const Particles<dim>& particles, 
       };
       write_rows("accelerated_points", H5T_NATIVE_LLONG, 1, state.accelerated_points.data());
       write_rows("point_acceleration", H5T_NATIVE_DOUBLE, dim, state.point_acceleration.data());
+      const auto describe_grid = [&](const char* name, const Description& d) {
+        Handle dset(H5Dopen2(grid.id, name, H5P_DEFAULT), H5Dclose, name);
+        describe(dset.id, d);
+      };
+      describe_grid("accelerated_points",
+                    {"1", "", "global index of a grid point, x fastest: i + n_x (j + n_y k)"});
+      describe_grid("point_acceleration", {"m/s^2", axis_names(dim), "its acceleration in the last step"});
+    }
+    if (!state.obstacle_names.empty()) {
+      // /obstacles: the loads on the obstacles (ObstacleLoads), the same on
+      // every rank; rank 0 writes them.
+      const ObstacleLoads::State& loads = state.obstacle_loads;
+      const hsize_t obstacles = state.obstacle_names.size();
+      Handle group(H5Gcreate2(file.id, "obstacles", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
+                   "group obstacles");
+      std::string names;
+      for (const std::string& n : state.obstacle_names) names += n + "\n";
+      write_text_attribute(group.id, "names", names);
+      write_attribute(group.id, "force_window", H5T_NATIVE_DOUBLE, loads.window);
+      const auto write_table = [&](const char* name, hsize_t columns, const std::vector<double>& data,
+                                   const Description& d) {
+        const hsize_t rows = columns > 0 ? data.size() / columns : 0;
+        const hsize_t dims[2] = {rows, columns};
+        Handle filespace(H5Screate_simple(2, dims, nullptr), H5Sclose, "file space");
+        Handle dset(H5Dcreate2(group.id, name, H5T_NATIVE_DOUBLE, filespace.id, H5P_DEFAULT, H5P_DEFAULT,
+                               H5P_DEFAULT),
+                    H5Dclose, name);
+        if (rows > 0) {
+          Handle memspace(H5Screate_simple(2, dims, nullptr), H5Sclose, "memory space");
+          if (rank != 0) {
+            H5Sselect_none(filespace.id);
+            H5Sselect_none(memspace.id);
+          }
+          const double dummy = 0.0;
+          check(H5Dwrite(dset.id, H5T_NATIVE_DOUBLE, memspace.id, filespace.id, dxpl.id,
+                         rank == 0 ? data.data() : &dummy),
+                std::string("writing obstacles/") + name);
+        }
+        describe(dset.id, d);
+      };
+      const std::string force = dim == 2 ? "N/m" : "N", impulse = dim == 2 ? "N s/m" : "N s";
+      const std::string per_thickness = dim == 2 ? " (2D: per m of thickness)" : "";
+      std::string step_columns = "start end";
+      for (const std::string& n : state.obstacle_names)
+        for (int a = 0; a < dim; ++a) step_columns += " " + n + "_" + "xyz"[a];
+      write_table("impulse_total", dim, loads.total,
+                  {impulse, axis_names(dim),
+                   "impulse on each obstacle (rows: the obstacles in the order of names) summed since t = 0" +
+                       per_thickness});
+      write_table("peak_window_force", 1, loads.peak_force,
+                  {force, "", "largest magnitude of the window-averaged force on each obstacle so far" + per_thickness});
+      write_table("peak_window_time", 1, loads.peak_time, {"s", "", "the time of that peak"});
+      write_table("window_steps", 2 + obstacles * dim, loads.window_steps,
+                  {"s s then " + impulse, step_columns,
+                   "the steps inside the force window: start and end time, then the impulse of the step on each "
+                   "obstacle" + per_thickness});
     }
     Handle run(H5Gcreate2(file.id, "run", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose, "group run");
     write_attribute(run.id, "dimension", H5T_NATIVE_INT, dim);
@@ -262,6 +386,11 @@ void write_checkpoint(const std::string& path, const Particles<dim>& particles, 
                       state.energy_terms[k]);
     write_attribute(run.id, "checkpoint_format", H5T_NATIVE_INT, checkpoint_format);
     write_text_attribute(run.id, "talus_version", TALUS_VERSION);
+    write_text_attribute(run.id, "case_file", state.case_file);
+    write_text_attribute(run.id, "case_name", std::filesystem::path(state.case_file).stem().string());
+    write_text_attribute(run.id, "units",
+                         std::string("time, step_size, next_output: s; energy_*: ") + (dim == 2 ? "J/m" : "J") +
+                             "; counts: 1");
     for (const auto& [section, text] : state.fingerprint)
       write_text_attribute(run.id, ("case_" + section).c_str(), text);
     // The data reach the disk here at the latest: a full disk fails here, not
@@ -454,6 +583,54 @@ void check_particles(const FieldSpec& f, const char* data, std::size_t count, co
   }
 }
 
+// /obstacles (format 6, present when the case has obstacles): the loads
+// that the obstacle table continues from, checked like the particles.
+ObstacleLoads::State read_obstacle_loads(hid_t file, int obstacles, int dim, double time) {
+  if (H5Lexists(file, "obstacles", H5P_DEFAULT) <= 0) throw Damaged("no group obstacles (the case has obstacles)");
+  Handle group(H5Gopen2(file, "obstacles", H5P_DEFAULT), H5Gclose, "group obstacles");
+  ObstacleLoads::State loads;
+  loads.window = read_attribute<double>(group.id, "force_window", H5T_NATIVE_DOUBLE);
+  if (!(std::isfinite(loads.window) && loads.window >= 0)) throw Damaged("force_window = " + number_text(loads.window));
+  // A table of `columns` finite numbers per row; `rows` >= 0 demands that many.
+  const auto read_table = [&](const char* name, hsize_t columns, long long rows) {
+    const std::string what = std::string("dataset obstacles/") + name;
+    if (H5Lexists(group.id, name, H5P_DEFAULT) <= 0) throw Damaged("no " + what);
+    Handle dset(H5Dopen2(group.id, name, H5P_DEFAULT), H5Dclose, what);
+    Handle space(H5Dget_space(dset.id), H5Sclose, "space");
+    hsize_t dims[2] = {0, 0};
+    if (H5Sget_simple_extent_ndims(space.id) != 2) throw Damaged(what + " is not a table");
+    H5Sget_simple_extent_dims(space.id, dims, nullptr);
+    if (dims[1] != columns || (rows >= 0 && dims[0] != static_cast<hsize_t>(rows)) || dims[0] > (hsize_t(1) << 31))
+      throw Damaged(what + " has " + std::to_string(dims[0]) + " x " + std::to_string(dims[1]) + " values, expected " +
+                    (rows >= 0 ? std::to_string(rows) : std::string("rows of")) + " x " + std::to_string(columns) +
+                    " for this case's " + std::to_string(obstacles) + " obstacles");
+    std::vector<double> values(dims[0] * dims[1]);
+    if (!values.empty()) check(H5Dread(dset.id, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data()), what);
+    for (double v : values)
+      if (!std::isfinite(v)) throw Damaged("a non-finite value in " + what);
+    return values;
+  };
+  loads.total = read_table("impulse_total", dim, obstacles);
+  loads.peak_force = read_table("peak_window_force", 1, obstacles);
+  loads.peak_time = read_table("peak_window_time", 1, obstacles);
+  const hsize_t row = 2 + static_cast<hsize_t>(obstacles) * dim;
+  loads.window_steps = read_table("window_steps", row, -1);
+  for (int o = 0; o < obstacles; ++o)
+    if (loads.peak_force[o] < 0 || loads.peak_time[o] < 0 || loads.peak_time[o] > time)
+      throw Damaged("peak_window_force " + number_text(loads.peak_force[o]) + " at " + number_text(loads.peak_time[o]) +
+                    " s of obstacle " + std::to_string(o) + " (time " + number_text(time) + ")");
+  // The window's steps: each of positive length, in order, none after the checkpoint's time.
+  double last_end = -std::numeric_limits<double>::infinity();
+  for (std::size_t r = 0; r < loads.window_steps.size(); r += row) {
+    const double start = loads.window_steps[r], end = loads.window_steps[r + 1];
+    if (!(start >= 0 && start < end && end <= time && start >= last_end))
+      throw Damaged("obstacles/window_steps: a step from " + number_text(start) + " to " + number_text(end) +
+                    " s (time " + number_text(time) + ")");
+    last_end = end;
+  }
+  return loads;
+}
+
 template <int dim>
 RunState read_particles(const std::string& path, Particles<dim>& particles, const Grid<dim>& grid,
                         const CheckpointExpectations& expected, MPI_Comm comm) {
@@ -538,6 +715,7 @@ RunState read_particles(const std::string& path, Particles<dim>& particles, cons
     result.accelerated_points.assign(index, index + rows);
     result.point_acceleration.assign(value, value + dim * rows);
   }
+  if (expected.obstacles > 0) result.obstacle_loads = read_obstacle_loads(file.id, expected.obstacles, dim, state.time);
   TALUS_PETSC(DMSwarmSetLocalSizes(particles.swarm(), 0, 1024));
   particles.add(static_cast<PetscInt>(mine.size()));
   for (std::size_t k = 0; k < fields.size(); ++k) {

@@ -400,6 +400,9 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
     }
     c.output.enabled = o.boolean("enabled", true);
     c.output.grid = o.boolean("grid", false);
+    c.output.force_window = o.real("force_window", 0.05);
+    if (!(c.output.force_window >= 0))
+      o.fail_value("force_window", "must be >= 0 (s; 0: no averaging, the window force is the step's force)");
     if (c.output.enabled) {
       const std::string problem = directory_problem(c.output.directory);
       if (!problem.empty()) o.fail_value("directory", c.output.directory, problem);

@@ -501,7 +501,7 @@ ObstacleForceTable::ObstacleForceTable(MPI_Comm comm, const std::string& path, c
                                        double resume_time, std::string* note)
     : path_(path), columns_(columns.size()) {
   if (rank_of(comm) != 0) return;
-  std::string header = "time";
+  std::string header = "time [s]";
   for (const auto& c : columns) header += "," + c;
   std::vector<std::string> kept;
   if (resume_time >= 0.0 && std::filesystem::exists(path_)) {

@@ -21,6 +21,7 @@
 
 #include "talus/grid/grid.hpp"
 #include "talus/io/config.hpp"
+#include "talus/io/obstacle_loads.hpp"
 #include "talus/particles/particles.hpp"
 
 namespace talus {
@@ -52,6 +53,13 @@ struct RunState {
   // since t = 0, in EnergyTerms::names() order.
   double initial_energy = 0.0;
   std::array<double, EnergyTerms::count> energy_terms{};
+  // The loads on the obstacles (ObstacleLoads; /obstacles, present when the
+  // case has obstacles): running impulses, peaks, the steps in the window.
+  ObstacleLoads::State obstacle_loads;
+  // Written for whoever opens the file, not read back: the obstacle names
+  // (the rows of /obstacles), the case file the run was started with.
+  std::vector<std::string> obstacle_names;
+  std::string case_file;
 };
 
 // What a restart checks the checkpoint's particles against: this case's
@@ -60,6 +68,7 @@ struct CheckpointExpectations {
   std::vector<double> lower, upper;
   std::vector<double> density;      // per material
   std::vector<int> body_material;   // per body
+  int obstacles = 0;                // the case's obstacles and frictional faces (rows of /obstacles)
 };
 
 // The /run attributes alone (all ranks), e.g. to restore the grid's

@@ -82,6 +82,9 @@ struct OutputConfig {
   double interval = 0;  // 0: only the first and last states
   bool enabled = true;
   bool grid = false;    // also the grid points of the last step (grid.pvd)
+  // The moving window of the averaged obstacle force, s (0: none; the
+  // average is then the step's force; docs/output.md#obstacle_forcescsv-the-force-on-each-obstacle).
+  double force_window = 0.05;
   // end / interval above this is an input error (docs/case_file.md#output).
   static constexpr long default_max_outputs = 100000;
   long max_outputs = default_max_outputs;

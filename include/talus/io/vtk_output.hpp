@@ -169,10 +169,11 @@ class ContactSeries {
   PointCloudSeries series_;
 };
 
-// obstacle_forces.csv: `time,<name>_fx,<name>_fy[,<name>_fz],...`, one row
-// per accepted step, written by rank 0 (the object does nothing on other
-// ranks). Rows are appended and flushed at once, so a crash loses at most the
-// row being written; a torn last line is dropped on restart.
+// A table of one row per accepted step, `time [s],<columns>` (the columns
+// carry their units): obstacle_forces.csv and energy.csv. Written by rank 0
+// (the object does nothing on other ranks). Rows are appended and flushed at
+// once, so a crash loses at most the row being written; a torn last line is
+// dropped on restart.
 class ObstacleForceTable {
  public:
   // A new table (header only), or, with `resume_time` >= 0, the existing
