@@ -207,7 +207,7 @@ def particle_spacing(case):
 
 def run_once(args, case_path, log_path, timeout):
     """Runs talus on 1 rank; returns (summary dict or None, output text, exit code, seconds)."""
-    cmd = [args.talus, "run", case_path] + shlex.split(args.petsc)
+    cmd = [args.talus, "run", case_path, "--overwrite"] + shlex.split(args.petsc)
     wait_for_free_core(args.wait_idle)
     cpu0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     busy0 = machine_busy_seconds()

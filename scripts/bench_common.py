@@ -50,10 +50,11 @@ def markdown_lines(rows, columns, text_columns=1):
 
 
 def run_talus_case(talus, case):
-    """`talus run case`: (user + sys CPU seconds of the child, its talus-summary
+    """`talus run case --overwrite` (a benchmark runs a case into the same
+    directory again): (user + sys CPU seconds of the child, its talus-summary
     as a dict); exits with the run's stderr if it fails."""
     before = os.times()
-    p = subprocess.run([talus, "run", case], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    p = subprocess.run([talus, "run", case, "--overwrite"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     after = os.times()
     if p.returncode != 0:
         sys.exit(f"talus run {case} failed with exit code {p.returncode}:\n{p.stderr[-2000:]}")

@@ -74,7 +74,10 @@ STEP_LINE = re.compile(r"^step\s+\d+\s+t\s+(\S+)\s+h\s+\S+\s+newton\s+(\d+)")
 
 def run(talus, case_path):
     t0 = time.monotonic()
-    out = subprocess.run([talus, "run", case_path], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    # A progress line at every step (STEP_LINE: its Newton iterations); the
+    # repeats run into the same directory.
+    out = subprocess.run([talus, "run", case_path, "--overwrite", "--progress-steps", "1"], stdout=subprocess.PIPE,
+                         stderr=subprocess.STDOUT, text=True)
     seconds = time.monotonic() - t0
     if out.returncode != 0:
         sys.exit(f"talus failed on {case_path}:\n{out.stdout[-2000:]}")

@@ -224,7 +224,7 @@ def tiny_case(dt, direct_limit=-1):
 
 
 def command(args, case_path, ranks, options):
-    cmd = [args.talus, "run", case_path] + shlex.split(options) + shlex.split(args.petsc)
+    cmd = [args.talus, "run", case_path, "--overwrite"] + shlex.split(options) + shlex.split(args.petsc)
     if ranks > 1:
         mpi = ["mpiexec", "-n", str(ranks)]
         if ranks > (os.cpu_count() or 1):

@@ -100,7 +100,7 @@ def run_talus(talus, floor, work, explicit=False):
         assert n == 1, "the case has no time.step to replace"
     with open(case, "w") as f:
         f.write(text)
-    cpu, stdout = cpu_of([talus, "run", case])
+    cpu, stdout = cpu_of([talus, "run", case, "--overwrite"])
     summary = json.loads(stdout.split("talus-summary:", 1)[1].splitlines()[0])
     return cpu, summary
 

@@ -56,7 +56,7 @@ def run(talus, case, ranks, balance, work):
     path = os.path.join(work, "case.yaml")
     with open(path, "w") as f:
         f.write(text)
-    cmd = ([talus] if ranks == 1 else ["mpiexec", "-n", str(ranks), talus]) + ["run", path]
+    cmd = ([talus] if ranks == 1 else ["mpiexec", "-n", str(ranks), talus]) + ["run", path, "--overwrite"]
     before = os.times()
     t0 = time.monotonic()
     p = subprocess.run(cmd, env={**os.environ, **MPI_ENV}, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)

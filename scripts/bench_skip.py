@@ -55,7 +55,7 @@ def case(cell, steps, material, height=8.0, obstacle=False):
 
 def run(talus, path):
     before = os.times()
-    p = subprocess.run([talus, "run", path], capture_output=True, text=True)
+    p = subprocess.run([talus, "run", path, "--overwrite"], capture_output=True, text=True)
     after = os.times()
     if p.returncode != 0:
         sys.exit(f"talus failed on {path}:\n{p.stderr}")

@@ -112,7 +112,7 @@ def main():
                     label = f"{case_name}_{name}"
                     case, pvd = write_case(src, args.out, label, args.end, args.step)
                     written.append(case)
-                    cpu, stdout = cpu_of([args.talus, "run", case] + opts)
+                    cpu, stdout = cpu_of([args.talus, "run", case, "--overwrite"] + opts)
                     summary = json.loads(stdout.split("talus-summary:", 1)[1].splitlines()[0])
                     row = results.setdefault((case_name, name), {"cpu": [], "summary": summary, "pvd": pvd})
                     row["cpu"].append(cpu)

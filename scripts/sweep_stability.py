@@ -116,7 +116,7 @@ def main():
         with open(case, "w") as f:
             f.write(case_text(out, cell, step, integrator, psi, phi, E, model, floor))
         try:
-            p = subprocess.run([args.talus, "run", case], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+            p = subprocess.run([args.talus, "run", case, "--overwrite"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                                timeout=args.timeout)
             code, stdout, stderr = p.returncode, p.stdout, p.stderr
         except subprocess.TimeoutExpired:

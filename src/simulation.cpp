@@ -22,14 +22,6 @@ namespace {
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
-std::string clock_text(double s) {
-  const long t = static_cast<long>(std::max(0.0, s));
-  std::ostringstream os;
-  os << std::setfill('0') << std::setw(2) << t / 3600 << ":" << std::setw(2) << (t / 60) % 60 << ":" << std::setw(2)
-     << t % 60;
-  return os.str();
-}
-
 // What a user can change when the step cannot be cut back any further
 // (issue 15: a failure message that says what to do).
 std::string failure_advice(const CaseConfig& c, double nominal) {
@@ -338,15 +330,80 @@ extern "C" void remember_signal(int signal) { pending_signal = signal; }
 }  // namespace
 
 template <int dim>
-RunSummary Simulation<dim>::run(std::ostream* progress) {
-  RunSummary summary;
+RunSummary Simulation<dim>::run(std::ostream* progress, const ProgressOptions& options) {
   const auto start = std::chrono::steady_clock::now();
-  const double start_time = time_;
+  try {
+    return run_steps(progress, options, start);
+  } catch (...) {
+    // What the run did until it failed, for its closing lines (summary()).
+    summary_.status = RunStatus::failed;
+    summary_.time = time_;
+    summary_.wall_seconds = seconds_since(start);
+    MPI_Comm_size(comm_, &summary_.final_load.ranks);  // not the particles per rank: no collective on this path
+    if (std::isfinite(energy_balance_error())) summary_.energy_balance_error = energy_balance_error();
+    throw;
+  }
+}
+
+template <int dim>
+std::pair<double, double> Simulation<dim>::motion_extremes() const {
+  double local[2] = {0.0, -std::numeric_limits<double>::infinity()}, global[2];
+  {
+    FieldView<PetscReal> x(particles_->swarm(), field::position), v(particles_->swarm(), field::velocity);
+    for (PetscInt p = 0; p < particles_->local_count(); ++p) {
+      local[0] = std::max(local[0], Eigen::Map<const Vector<dim>>(v.data() + dim * p).norm());
+      local[1] = std::max(local[1], x[dim * p]);
+    }
+  }
+  MPI_Allreduce(local, global, 2, MPI_DOUBLE, MPI_MAX, comm_);
+  return {global[0], global[1]};
+}
+
+namespace {
+
+// The continued series, from rank 0 to every rank (each numbers the files it writes).
+void broadcast_series(ContinuedSeries& series, MPI_Comm comm) {
+  int rank;
+  MPI_Comm_rank(comm, &rank);
+  std::string text;
+  if (rank == 0) {
+    std::ostringstream out;
+    out.precision(17);
+    out << series.next_number << '\n';
+    for (const auto& [t, file] : series.entries) out << t << ' ' << file << '\n';
+    text = out.str();
+  }
+  unsigned long size = text.size();
+  MPI_Bcast(&size, 1, MPI_UNSIGNED_LONG, 0, comm);
+  text.resize(size);
+  MPI_Bcast(text.data(), static_cast<int>(size), MPI_CHAR, 0, comm);
+  if (rank == 0) return;
+  std::istringstream in(text);
+  in >> series.next_number;
+  series.entries.clear();
+  double t;
+  std::string file;
+  while (in >> t >> file) series.entries.emplace_back(t, file);
+}
+
+}  // namespace
+
+template <int dim>
+RunSummary Simulation<dim>::run_steps(std::ostream* progress, const ProgressOptions& options,
+                                      std::chrono::steady_clock::time_point start) {
+  RunSummary& summary = summary_;
+  summary = RunSummary{};
+  summary.start_time = summary.time = time_;
+  summary.end_time = config_.time.end;
   int rank;
   MPI_Comm_rank(comm_, &rank);
+  ProgressLog log(rank == 0 ? progress : nullptr, options);
+  EtaEstimate eta;
   const TimeConfig& tc = config_.time;
   const double eps = 1e-12 * tc.end;
-  double next_output = config_.output.interval > 0 ? config_.output.interval : tc.end;
+  const double interval = config_.output.interval;
+  const long rebalances_at_start = rebalances_;
+  double next_output = interval > 0 ? interval : tc.end;
   StepController control(tc.step);
   bool options_checked = false;
   std::unique_ptr<VtkSeries<dim>> vtk;
@@ -388,11 +445,11 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
   };
   const auto write_output = [&] {
     guarded("writing the output", [&] {
-      const std::size_t index = vtk->entries().size();
+      const std::size_t number = static_cast<std::size_t>(vtk->next_number());
       vtk->write(*particles_, time_);
-      if (obstacle_vtk) obstacle_vtk->write(obstacles_, time_, index);
-      if (contact_vtk) contact_vtk->write(contact_samples(), time_, index);
-      if (grid_vtk) grid_vtk->write(grid_points_, time_, index);
+      if (obstacle_vtk) obstacle_vtk->write(obstacles_, time_, number);
+      if (contact_vtk) contact_vtk->write(contact_samples(), time_, number);
+      if (grid_vtk) grid_vtk->write(grid_points_, time_, number);
     });
     ++summary.outputs;
   };
@@ -411,14 +468,28 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
     return row;
   };
   if (resume_) {
-    summary.steps = resume_->steps;
-    summary.cutbacks = resume_->cutbacks;
+    summary.steps_before = resume_->steps;
+    summary.cutbacks_before = resume_->cutbacks;
+    // With `time.step: auto` the nominal step is the one the next step will
+    // take (as in the run that wrote the checkpoint), not the first one.
+    if (tc.auto_step) control.set_nominal(auto_nominal_step());
     control.restore({resume_->step_size, resume_->patience, resume_->calm, resume_->since_growth});
     next_output = resume_->next_output;
-    if (vtk) vtk->resume(resume_->outputs);
-    if (obstacle_vtk) obstacle_vtk->resume(resume_->outputs);
-    if (contact_vtk) contact_vtk->resume(resume_->outputs);
-    if (grid_vtk) grid_vtk->resume(resume_->outputs);
+    if (vtk) {
+      // The series goes on from the checkpoint's outputs: in the directory
+      // of the checkpoint's run as they are, in another (a branch) from hard
+      // links to them (docs/checkpoints.md#restart-into-another-directory-a-branch).
+      ContinuedSeries series;
+      guarded("continuing the output series", [&] {
+        if (rank == 0) series = continue_series(resume_->output_directory, config_.output.directory, resume_->outputs);
+      });
+      broadcast_series(series, comm_);
+      vtk->resume(series.entries, series.next_number);
+      if (obstacle_vtk) obstacle_vtk->resume(series.entries);
+      if (contact_vtk) contact_vtk->resume(series.entries);
+      if (grid_vtk) grid_vtk->resume(series.entries);
+      if (!series.note.empty()) log.message("  " + series.note);
+    }
     // The table keeps its rows up to the checkpoint's time and continues.
     std::string note;
     if (obstacle_output)
@@ -428,7 +499,7 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
       energy_table = std::make_unique<ObstacleForceTable>(comm_, energy_path, energy_columns, time_, &energy_note);
       if (note.empty()) note = energy_note;
     }
-    if (progress && rank == 0 && !note.empty()) *progress << "  " << note << "\n";
+    if (!note.empty()) log.message("  " + note);
   } else {
     if (obstacle_output) forces = std::make_unique<ObstacleForceTable>(comm_, forces_path, force_columns());
     if (vtk) {
@@ -442,18 +513,21 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
     if (grid_vtk) record_initial_grid_points();  // t = 0: the P2G state
     if (vtk) write_output();
   }
+  // Steps and cut-backs since t = 0: the checkpoints' numbering and counts.
+  const auto steps_since_start = [&] { return summary.steps_before + summary.steps; };
   const auto checkpoint = [&] {
     const StepController::State s = control.state();
     RunState state;
     state.time = time_;
-    state.steps = summary.steps;
-    state.cutbacks = summary.cutbacks;
+    state.steps = steps_since_start();
+    state.cutbacks = summary.cutbacks_before + summary.cutbacks;
     state.step_size = s.step;
     state.patience = s.patience;
     state.calm = s.calm;
     state.since_growth = s.since_growth;
     state.next_output = next_output;
     if (vtk) state.outputs = vtk->entries();
+    state.output_directory = config_.output.directory;
     for (const auto& axis : grid_->ownership()) state.grid_ownership.push_back(axis);
     store_last_acceleration(state);
     state.initial_energy = initial_energy_;
@@ -464,14 +538,33 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
     state.fingerprint = config_.fingerprint;
     std::filesystem::create_directories(config_.checkpoint.directory);
     char name[64];
-    std::snprintf(name, sizeof name, "checkpoint_%06ld.h5", summary.steps);
+    std::snprintf(name, sizeof name, "checkpoint_%06ld.h5", state.steps);
     summary.last_checkpoint = config_.checkpoint.directory + "/" + name;
     guarded("writing a checkpoint", [&] { write_checkpoint(summary.last_checkpoint, *particles_, state, comm_); });
-    if (progress && rank == 0) *progress << "  checkpoint " << summary.last_checkpoint << "\n";
+    log.note("  checkpoint " + summary.last_checkpoint);
     // A restart from here builds its solver anew (matrix, KSP/PC, LU factors,
     // the inexact-Newton state); so does this run, so that both continue bit
     // for bit (docs/checkpoints.md).
     newton_->rebuild_next_step();
+  };
+  const auto finish = [&] {
+    summary.time = time_;
+    summary.wall_seconds = seconds_since(start);
+    summary.rebalances = rebalances_ - rebalances_at_start;
+    summary.final_load = rank_load(comm_, particles_->local_count());
+    summary.energy_balance_error = energy_balance_error();
+    summary.peak_window_forces = peak_loads();
+    summary.force_window = loads_.window();
+    log.finish();
+  };
+  // The next step: control.step(), shortened to land exactly on the next
+  // output time or time.end when it would pass it, or stretched to land on it
+  // when it would stop short of it by less than a millionth of a step (no
+  // sliver step after it). The controller's step is not changed by either.
+  const auto next_step = [&] {
+    const double target = vtk && interval > 0 ? std::min(next_output, tc.end) : tc.end;
+    const double h = control.step();
+    return time_ + h * (1.0 + 1e-6) >= target ? std::pair{target - time_, target} : std::pair{h, -1.0};
   };
   pending_signal = 0;
   const auto previous_int = std::signal(SIGINT, remember_signal);
@@ -483,19 +576,20 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
       std::signal(SIGTERM, t);
     }
   } restore_signals{previous_int, previous_term};
-  const long rebalances_at_start = rebalances_;
   while (time_ < tc.end - eps) {
     if (tc.auto_step) control.set_nominal(auto_nominal_step());
-    const double h_try = std::min(control.step(), tc.end - time_);
     const double step_start = time_;
+    const auto [h_try, landing] = next_step();
     // Balanced ranks: re-partition the grid when the particles have moved
     // too far out of balance (docs/parallel.md).
     RankLoad load;
     const bool rebalanced = balance_ranks(false, &load);
     summary.worst_imbalance = std::max(summary.worst_imbalance, load.imbalance());
-    if (rebalanced && progress && rank == 0)
-      *progress << "  grid re-partitioned at t = " << time_ << ": particles per rank " << load.min << " to "
-                << load.max << "\n";
+    if (rebalanced) {
+      std::ostringstream m;
+      m << "  grid re-partitioned at t = " << time_ << ": particles per rank " << load.min << " to " << load.max;
+      log.message(m.str());
+    }
     StepReport r = advance(h_try);
     summary.newton_iterations += r.newton.iterations;
     summary.linear_iterations += r.newton.linear_iterations;
@@ -507,17 +601,22 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
     summary.factorizations += r.newton.factorizations;
     if (!r.converged) {
       ++summary.cutbacks;
-      const double h = control.failed();
-      if (progress && rank == 0)
-        *progress << "  Newton failed (" << r.newton.reason << ") at t = " << time_ << " with h = " << h_try
-                  << "; retrying with h = " << h << "\n";
+      const double h = control.failed(h_try);
+      std::ostringstream m;
+      m << "  Newton failed (" << r.newton.reason << ") at t = " << time_ << " with h = " << h_try
+        << "; retrying with h = " << next_step().first;
+      log.message(m.str());
       if (h < tc.min_step_ratio * control.nominal())
         throw SimulationError("Newton did not converge at t = " + number_text(time_) +
                               " even with h = " + number_text(h_try) + " (" + r.newton.reason + "); " +
                               failure_advice(config_, control.nominal()));
       continue;
     }
+    // On the output time or time.end itself: time_ + h can miss it in the last bit.
+    if (landing >= 0) time_ = landing;
     ++summary.steps;
+    const double elapsed = seconds_since(start);
+    eta.add(elapsed, time_);
     if (!options_checked) {
       // By now the solver has read every option it will read: one that it
       // did not is misspelled or meant for another configuration.
@@ -526,7 +625,7 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
       if (!unused.empty() && rank == 0) {
         std::cerr << "talus: warning: PETSc options never read by the solver (misspelled, or for another solver "
                      "configuration): " << unused << "\n";
-        if (progress) *progress << "  warning: PETSc options never read by the solver: " << unused << "\n";
+        log.message("  warning: PETSc options never read by the solver: " + unused);
       }
     }
     summary.contact_points += r.contact_points;
@@ -536,58 +635,55 @@ RunSummary Simulation<dim>::run(std::ostream* progress) {
     if (!obstacles_.empty()) loads_.add_step(step_start, time_, force_row());
     if (forces) guarded("appending to obstacle_forces.csv", [&] { forces->append(time_, force_table_row()); });
     if (energy_table) guarded("appending to energy.csv", [&] { energy_table->append(time_, energy_row()); });
-    const bool due = time_ >= next_output - eps || time_ >= tc.end - eps;
+    const bool last = time_ >= tc.end - eps;
+    const bool due = time_ >= next_output - eps || last;
     if (vtk && due) {
       write_output();
-      while (next_output <= time_ + eps) next_output += config_.output.interval > 0 ? config_.output.interval : tc.end;
+      // k x interval, not a running sum: 0.1 + 0.1 + 0.1 is not 0.3.
+      while (next_output <= time_ + eps)
+        next_output = interval > 0 ? interval * (std::round(next_output / interval) + 1) : next_output + tc.end;
     }
-    // The explicit integrator takes thousands of small steps: a line per
-    // output and per 100 steps.
-    const bool explicit_steps = tc.integrator == Integrator::explicit_euler;
-    if (progress && rank == 0 && explicit_steps && (due || summary.steps % 100 == 0)) {
-      const double elapsed = seconds_since(start);
-      const double eta = elapsed / (time_ - start_time) * (tc.end - time_);
-      *progress << "step " << std::setw(7) << summary.steps << "  t " << std::scientific << std::setprecision(4)
-                << time_ << "  h " << std::setprecision(3) << r.h << std::defaultfloat << std::setprecision(6)
-                << "  explicit  active " << r.active_points << "  ETA " << clock_text(eta)
-                << (due && vtk ? "  [output]" : "") << "\n";
-      progress->flush();
-    }
-    if (progress && rank == 0 && !explicit_steps) {
-      const double elapsed = seconds_since(start);
-      const double eta = elapsed / (time_ - start_time) * (tc.end - time_);
-      *progress << "step " << std::setw(6) << summary.steps << "  t " << std::scientific << std::setprecision(4)
-                << time_ << "  h " << std::setprecision(3) << r.h << std::defaultfloat << "  newton "
-                << r.newton.iterations << "  ksp " << r.newton.linear_iterations << "  unbalance " << std::scientific
-                << std::setprecision(1) << r.newton.unbalance << std::defaultfloat << std::setprecision(6) << "  active "
-                << r.active_points << "  ETA " << clock_text(eta) << (due && vtk ? "  [output]" : "") << "\n";
-      progress->flush();
+    // Rank 0's clock decides whether this step gets a progress line; the same
+    // reduction tells every rank whether a signal arrived on any.
+    int flags[2] = {pending_signal,
+                    rank == 0 && log.wants_line(steps_since_start(), summary.steps == 1, vtk && due, last, elapsed)};
+    int any[2] = {0, 0};
+    MPI_Allreduce(flags, any, 2, MPI_INT, MPI_MAX, comm_);
+    if (any[1]) {
+      const auto [max_speed, front] = motion_extremes();  // collective
+      ProgressFigures f;
+      f.step = steps_since_start();
+      f.time = time_;
+      f.end = tc.end;
+      f.h = r.h;
+      f.explicit_step = tc.integrator == Integrator::explicit_euler;
+      f.newton = r.newton.iterations;
+      f.linear = r.newton.linear_iterations;
+      f.unbalance = r.newton.unbalance;
+      f.active = r.active_points;
+      f.elapsed = elapsed;
+      f.eta = eta.seconds_to(tc.end);
+      f.max_speed = max_speed;
+      f.kinetic = particle_energy_.kinetic;
+      f.front = front;
+      f.dim = dim;
+      f.output = vtk && due;
+      log.line(f);
     }
     // A signal on any rank stops every rank after this step, with a checkpoint.
-    int signal_here = pending_signal, signal_any = 0;
-    MPI_Allreduce(&signal_here, &signal_any, 1, MPI_INT, MPI_MAX, comm_);
-    if (signal_any) {
-      summary.interrupted_by = signal_any;
-      summary.energy_balance_error = energy_balance_error();
-      summary.peak_window_forces = peak_loads();
-      summary.force_window = loads_.window();
+    if (any[0]) {
+      summary.status = RunStatus::interrupted;
+      summary.interrupted_by = any[0];
       if (config_.checkpoint.enabled) checkpoint();
-      summary.wall_seconds = seconds_since(start);
-      summary.rebalances = rebalances_ - rebalances_at_start;
-      summary.final_load = rank_load(comm_, particles_->local_count());
+      finish();
       return summary;
     }
     if (config_.checkpoint.enabled && config_.checkpoint.interval > 0 &&
-        summary.steps % config_.checkpoint.interval == 0 && time_ < tc.end - eps)
+        steps_since_start() % config_.checkpoint.interval == 0 && !last)
       checkpoint();
   }
   if (config_.checkpoint.enabled) checkpoint();
-  summary.wall_seconds = seconds_since(start);
-  summary.rebalances = rebalances_ - rebalances_at_start;
-  summary.final_load = rank_load(comm_, particles_->local_count());
-  summary.energy_balance_error = energy_balance_error();
-  summary.peak_window_forces = peak_loads();
-  summary.force_window = loads_.window();
+  finish();
   return summary;
 }
 

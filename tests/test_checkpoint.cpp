@@ -75,7 +75,12 @@ void restart_repeats_the_run(const std::string& time, const std::string& label) 
     CHECK(d == 0.0);
   }
   const RunSummary s = second.run(nullptr);
-  CHECK(s.steps == w.steps);  // the step count continues from the checkpoint
+  // The counts: this run's steps after the checkpoint's, together the
+  // uninterrupted run's (RunSummary: steps since the restart, steps_before
+  // up to it).
+  CHECK(s.steps_before == f.steps);
+  CHECK(s.steps_before + s.steps == w.steps);
+  CHECK(s.start_time == first.time());
   CHECK(second.time() == Approx(whole.time()).epsilon(1e-14));
 
   for (const auto& [name, block] : {std::pair{field::position, 2}, std::pair{field::velocity, 2},

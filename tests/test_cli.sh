@@ -147,6 +147,9 @@ refused "--bogus" "command line: unknown option --bogus"
 refused "-help" "command line: -help: talus --help prints the usage"
 refused "other.yaml" "command line: unexpected argument 'other.yaml'"
 refused "-talus_snes_monitor a b" "command line: unexpected argument 'b'"
+refused "--progress-steps 1.5" "command line: --progress-steps 1.5: expected an integer in [0, 1e9]"
+refused "--progress-seconds" "command line: --progress-seconds needs a value"
+refused "--overwite" "command line: unknown option --overwite"
 set +e
 "$talus" run bad_option.yaml -talus_newton_predictor lats > bad_option.log 2>&1
 code=$?
@@ -226,6 +229,25 @@ set -e
 [ "$code" -eq 130 ] || { echo "SIGINT: expected exit 130, got $code"; cat sig.log; exit 1; }
 checkpoint=$(sed -n 's/.*continue with --restart \(.*\)$/\1/p' sig.log)
 [ -f "$checkpoint" ] || { echo "SIGINT: no checkpoint named in the log"; cat sig.log; exit 1; }
+# The closing lines: why the run stopped, before the totals, with the status
+# and the time reached: the checkpoint's time, 0 < t < 1; the steps this run
+# made are the checkpoint's number (a run from t = 0: none before it).
+/usr/bin/python3 - sig.log "$checkpoint" <<'PY'
+import json, re, subprocess, sys
+log = open(sys.argv[1]).read().splitlines()
+stopped = [k for k, l in enumerate(log) if l.startswith("talus: stopped by signal 2 at t = ")]
+done = [k for k, l in enumerate(log) if l.startswith("talus: done in ")]
+assert len(stopped) == 1 and len(done) == 1 and stopped[0] < done[0], log[-6:]
+summary = json.loads(next(l for l in log if l.startswith("talus-summary:")).split(":", 1)[1])
+h5 = subprocess.run(["h5dump", "-a", "/run/time", sys.argv[2]], capture_output=True, text=True).stdout
+t = float(re.search(r"\(0\): ([0-9.eE+-]+)", h5).group(1))
+steps = int(re.search(r"checkpoint_(\d+)\.h5", sys.argv[2]).group(1))
+assert summary["status"] == "interrupted" and summary["signal"] == 2, summary
+assert abs(summary["time"] - t) <= 1e-12 * t and 0 < t < 1 and summary["end_time"] == 1, (summary["time"], t)
+assert summary["steps"] == steps and summary["steps_before"] == 0 and summary["start_time"] == 0, (summary, steps)
+assert f"interrupted by signal 2 at t = {summary['time']:.6g} s of 1 s; this run {steps} steps" in log[done[0]], log[done[0]]
+print(f"cli ok: SIGINT at t = {t} after {steps} steps: 'stopped' before 'done', status interrupted")
+PY
 [ ! -e "$checkpoint.tmp" ] || { echo "SIGINT: temporary checkpoint left behind"; exit 1; }
 h5dump -a /run/time "$checkpoint" | grep -q "DATA" || { echo "h5dump cannot read $checkpoint"; exit 1; }
 # The same checkpoint with another gravity in the case: exit 2, the section
@@ -242,6 +264,8 @@ grep -q "the checkpoint belongs to another case: \`gravity\` differs" moon.log |
 # The serial checkpoint continues on two ranks: each keeps the particles in its cells.
 mpiexec -n 2 "$talus" run sig.yaml --restart "$checkpoint" > restart.log
 grep -q "restarting from $checkpoint" restart.log || { echo "restart not reported"; cat restart.log; exit 1; }
+grep -q '^talus-summary: {"status": "completed", "signal": 0, ' restart.log && grep -q '"time": 1, "end_time": 1,' restart.log ||
+  { echo "restart: no completed status at t = 1"; cat restart.log; exit 1; }
 /usr/bin/python3 - "$work/sig" <<'PY'
 import sys, xml.etree.ElementTree as ET
 out = sys.argv[1]
@@ -332,7 +356,7 @@ obstacles:
   - {name: wall, type: box, lower: [0.8, 0.45], upper: [1.2, 0.55], velocity: [-1.0, 0.0], friction: 0.3}
 boundaries: {x_min: {condition: frictional, friction: 0.4}}
 EOF
-"$talus" run obs.yaml > obs.log 2>&1 || { echo "FAIL: obstacle case"; cat obs.log; exit 1; }
+"$talus" run obs.yaml --progress-steps 1 > obs.log 2>&1 || { echo "FAIL: obstacle case"; cat obs.log; exit 1; }
 cp -r obs obs_full
 # Restart from step 7 in the same directory, after a crash that tore the
 # table's last line: rows after t = 0.07 are dropped and written again, the
@@ -714,3 +738,239 @@ for run, ranks in (("grid", 1), ("grid2", 2)):
 print(f"cli ok: grid mass = particle mass to {worst_mass:.1e}, grid momentum = particle momentum to {worst_momentum:.1e} (relative)")
 PY
 
+
+# Output times land on step ends (docs/output.md#output-times): the elastic
+# column with h = 0.0075 s and an output every 0.025 s to 0.1 s. Each
+# interval takes 3 full steps and one shortened to 0.0025 s: 16 steps, the
+# outputs at exactly k x 0.025 s, and the step after a shortened one is the
+# full 0.0075 s again (the step controller keeps its step). The progress
+# lines (not a terminal, a line every 3 steps, no time trigger) come at the
+# first step, the multiples of 3, the outputs and the last step, with the
+# figures of the state: v_max and the front (max x) of the particles of the
+# last output, KE of energy.csv's last row.
+sed -e "s#directory: .*#directory: $work/land#" -e 's/end: 0.5/end: 0.1/' -e 's/step: 0.005/step: 0.0075/' \
+  -e 's/interval: 0.05/interval: 0.025/' "$repo/inputs/elastic_column.yaml" > land.yaml
+"$talus" run land.yaml --progress-steps 3 --progress-seconds 0 > land.log 2>&1 || { echo "FAIL: land"; cat land.log; exit 1; }
+/usr/bin/python3 - "$work/land" land.log <<'PY'
+import csv, json, re, sys, xml.etree.ElementTree as ET
+import numpy as np
+import vtk
+from vtk.util.numpy_support import vtk_to_numpy
+out, log = sys.argv[1], open(sys.argv[2]).read()
+entries = list(ET.parse(out + "/particles.pvd").getroot().iter("DataSet"))
+times = [float(e.get("timestep")) for e in entries]
+want = [0.025 * k for k in range(5)]
+assert len(times) == 5 and all(abs(a - b) <= 1e-12 * max(b, 1e-300) for a, b in zip(times, want)), times
+rows = list(csv.reader(open(out + "/energy.csv")))[1:]
+t = np.array([float(r[0]) for r in rows])                      # t = 0, then every step
+h = np.diff(t)
+assert len(h) == 16, len(h)
+assert np.abs(h - np.tile([0.0075, 0.0075, 0.0075, 0.0025], 4)).max() < 1e-12, h
+summary = json.loads(log.split("talus-summary:", 1)[1].splitlines()[0])
+assert summary["steps"] == 16 and summary["outputs"] == 5 and summary["status"] == "completed", summary
+assert summary["time"] == 0.1 and summary["end_time"] == 0.1, summary
+lines = [l for l in log.splitlines() if l.startswith("step ")]
+steps = [int(l.split()[1]) for l in lines]
+assert steps == [1, 3, 4, 6, 8, 9, 12, 15, 16], steps
+field = lambda line, name: float(re.search(name + r" (\S+)", line).group(1))
+for l in lines:
+    assert re.search(r"elapsed \d\d:\d\d:\d\d  ETA (\d\d:\d\d:\d\d|--:--:--)  v_max \S+ m/s  KE \S+ J/m  front \S+ m", l), l
+last = lines[-1]
+assert last.endswith("[output]") and "ETA 00:00:00" in last, last
+r = vtk.vtkXMLPUnstructuredGridReader()
+r.SetFileName(out + "/" + entries[-1].get("file"))
+r.Update()
+x = vtk_to_numpy(r.GetOutput().GetPoints().GetData())
+v = vtk_to_numpy(r.GetOutput().GetPointData().GetArray("velocity"))
+speed, front, kinetic = np.linalg.norm(v, axis=1).max(), x[:, 0].max(), float(rows[-1][1])
+assert abs(field(last, "v_max") - speed) <= 1e-5 * speed, (last, speed)
+assert abs(field(last, "front") - front) <= 1e-5 * front, (last, front)
+assert abs(field(last, "KE") - kinetic) <= 1e-5 * kinetic, (last, kinetic)
+print(f"cli ok: outputs at {times}, steps {h.round(6).tolist()[:4]}..., progress lines at steps {steps}; "
+      f"v_max {speed:.6g} m/s, front {front:.6g} m, KE {kinetic:.6g} J/m")
+PY
+# The explicit integrator lands the same way: the reference column's step
+# 1.4925e-4 s (time.cfl x its limit) and outputs every 1e-3 s to 3e-3 s:
+# 1e-3 / 1.4925e-4 = 6.7, so 7 steps per output, 21 in all.
+sed -e "s#directory: .*#directory: $work/land_explicit#" -e 's/end: 1.0/end: 0.003/' -e 's/interval: 0.05/interval: 0.001/' \
+  "$repo/inputs/reference_column_explicit.yaml" > land_explicit.yaml
+"$talus" run land_explicit.yaml --quiet > land_explicit.log 2>&1 || { echo "FAIL: land_explicit"; cat land_explicit.log; exit 1; }
+/usr/bin/python3 - "$work/land_explicit" land_explicit.log <<'PY'
+import json, sys, xml.etree.ElementTree as ET
+out, log = sys.argv[1], open(sys.argv[2]).read()
+times = [float(e.get("timestep")) for e in ET.parse(out + "/particles.pvd").getroot().iter("DataSet")]
+assert len(times) == 4 and all(abs(t - 1e-3 * k) <= 1e-12 * 1e-3 * k for k, t in enumerate(times)), times
+summary = json.loads(log.split("talus-summary:", 1)[1].splitlines()[0])
+assert summary["steps"] == 21, summary["steps"]
+print(f"cli ok: explicit outputs at {times} in {summary['steps']} steps")
+PY
+# --quiet: no progress line (nor a checkpoint note), the closing lines stay.
+# The same directory again: refused without --overwrite (below), here with it.
+"$talus" run land.yaml --quiet --overwrite > quiet.log 2>&1 || { echo "FAIL: --quiet"; cat quiet.log; exit 1; }
+! grep -q "^step \|checkpoint land\|$(printf '\r')" quiet.log && grep -q '^talus: done in .*: completed at t = 0.1 s of 0.1 s; this run 16 steps' quiet.log &&
+  grep -q '^talus-summary: {"status": "completed"' quiet.log || { echo "FAIL: --quiet output"; cat quiet.log; exit 1; }
+# On a terminal (a pseudo-terminal from script(1)): the line is rewritten in
+# place with carriage returns and ended before the closing lines; messages
+# (a cut-back forced by -talus_snes_max_it 1 at the first step, whose Newton
+# needs 2 iterations; the checkpoint) take lines of their own, the progress
+# line cleared first. The cut-back halves 0.0075 s: 17 steps.
+if command -v script > /dev/null; then
+  # (stty: wide enough that the line is not cut to the terminal's width)
+  script -qec "stty cols 200; $talus run land.yaml --overwrite -talus_snes_max_it 1" /dev/null > tty.log 2>&1 ||
+    { echo "FAIL: tty run"; cat tty.log; exit 1; }
+  /usr/bin/python3 - tty.log "$work/land" <<'PY'
+import re, sys
+text = open(sys.argv[1], newline="").read().replace("\r\n", "\n")
+lines = text.split("\n")
+updates = re.findall(r"\rstep (\d+)  t (\S+) s \((\d+)%\)  h \S+  elapsed \S+  ETA \S+  v_max \S+ m/s  KE \S+ J/m  front \S+ m", text)
+assert updates and updates[0][0] == "1" and updates[-1][:3] == ("17", "0.1", "100"), updates
+assert not any(l.startswith("step ") for l in lines), "a progress line of its own on a terminal"
+assert "  Newton failed (DIVERGED_MAX_IT) at t = 0 with h = 0.0075; retrying with h = 0.00375" in lines, lines[:4]
+# The checkpoint note after the last step: the drawn line cleared, the note, a new line.
+assert f"\r\x1b[K  checkpoint {sys.argv[2]}/checkpoint_000017.h5\n" in text, [l for l in lines if "checkpoint" in l]
+done = next(k for k, l in enumerate(lines) if l.startswith("talus: done in"))
+assert "\x1b[K" not in lines[done] and "\r" not in lines[done], lines[done]
+print(f"cli ok: on a terminal {len(updates)} in-place updates of one line, the cut-back and checkpoint on lines of their own")
+PY
+fi
+
+# A failed run prints its closing lines too, with the status failed and the
+# time reached: the column on a free floor falls out of the grid (exit 3).
+# Its bottom row of 20 particles (y0 = 0.0125 m) falls freely, with
+# y_n = y0 - g h^2 n (n + 1) / 2 (x^{n+1} = x^n + h v^{n+1}): below 0 first at
+# n = 10 (55 x 2.45e-4 m > y0 > 45 x 2.45e-4 m), so the run fails in step 10,
+# at t = 0.045 s after 9 steps and the t = 0 output.
+sed -e "s#directory: .*#directory: $work/fall#" -e 's/end: 0.5/end: 0.1/' -e 's/y_min: fixed/y_min: free/' \
+  "$repo/inputs/elastic_column.yaml" > fall.yaml
+set +e
+"$talus" run fall.yaml > fall.log 2> fall.err
+code=$?
+set -e
+[ "$code" -eq 3 ] && grep -q "^talus: simulation failed: 20 particles left the grid through a free face at t = 0.045;" fall.err &&
+  grep -q "^talus: done in .* s: failed at t = 0.045 s of 0.1 s; this run 9 steps, 0 cut-backs, .* 1 outputs" fall.log &&
+  grep -q '^talus-summary: {"status": "failed", "signal": 0, .*"time": 0.045, "end_time": 0.1, "steps": 9,' fall.log ||
+  { echo "FAIL: a failed run's closing lines: exit $code"; cat fall.log fall.err; exit 1; }
+
+# Restart counts (RunSummary: this run's steps, and steps_before up to the
+# checkpoint): the obstacle case restarted from step 7 in its directory made
+# 13 steps, 7 + 13 = the 20 of the run straight through; its Newton
+# iterations and those of steps 1 to 7 of that run (its progress lines, one
+# per step) add up to the straight run's, as the restart repeats it bit for bit.
+/usr/bin/python3 - obs.log obs_restart.log <<'PY'
+import json, re, sys
+def summary(path):
+    text = open(path).read()
+    return text, json.loads(text.split("talus-summary:", 1)[1].splitlines()[0])
+full_log, full = summary(sys.argv[1])
+_, restart = summary(sys.argv[2])
+per_step = {int(m.group(1)): int(m.group(2)) for m in re.finditer(r"^step\s+(\d+)\s+t\s+\S+\s+h\s+\S+\s+newton\s+(\d+)", full_log, re.M)}
+assert sorted(per_step) == list(range(1, 21)), sorted(per_step)
+assert (full["steps"], full["steps_before"], restart["steps"], restart["steps_before"]) == (20, 0, 13, 7), (full, restart)
+assert abs(restart["start_time"] - 0.07) < 1e-12 and restart["time"] == 0.2 and full["time"] == 0.2, restart
+assert restart["cutbacks_before"] + restart["cutbacks"] == full["cutbacks"] == 0
+assert sum(per_step[k] for k in range(1, 8)) + restart["newton_iterations"] == full["newton_iterations"], \
+    (per_step, restart["newton_iterations"], full["newton_iterations"])
+assert full["outputs"] == 5 and restart["outputs"] == 3    # t = 0.1, 0.15, 0.2 after the restart at 0.07
+print(f"cli ok: restart counts: {restart['steps_before']} + {restart['steps']} steps = {full['steps']}, "
+      f"Newton {sum(per_step[k] for k in range(1, 8))} + {restart['newton_iterations']} = {full['newton_iterations']}")
+PY
+
+# A restart into another directory (a branch, docs/checkpoints.md): from the
+# copy obs_full of the straight run (its checkpoint names its directory
+# relative to itself, so the copy works) into branch, to 0.3 s. The branch's
+# .pvd files list only files that exist and open; the parent's outputs up to
+# the checkpoint are hard links; its tables continue the parent's; the
+# parent's directory is unchanged. A branch of the branch (on 2 ranks), and a
+# checkpoint without its outputs, give series that open as well.
+snapshot() { (cd "$1" && find . -type f -print0 | sort -z | xargs -0 md5sum); }
+parent_before=$(snapshot obs_full)
+sed -e "s#directory: $work/obs#directory: $work/branch#" -e 's/end: 0.2/end: 0.3/' obs.yaml > branch.yaml
+"$talus" run branch.yaml --restart obs_full/checkpoint_000007.h5 > branch.log 2>&1 || { echo "FAIL: branch"; cat branch.log; exit 1; }
+grep -q "branch of the run in obs_full: 10 files of its 2 outputs up to the checkpoint hard-linked, 2 copied" branch.log ||
+  { echo "FAIL: branch note"; cat branch.log; exit 1; }
+[ "$(snapshot obs_full)" = "$parent_before" ] || { echo "FAIL: the branch changed its parent's directory"; exit 1; }
+sed -e "s#directory: $work/branch#directory: $work/branch2#" -e 's/end: 0.3/end: 0.25/' branch.yaml > branch2.yaml
+mpiexec -n 2 "$talus" run branch2.yaml --restart branch/checkpoint_000014.h5 > branch2.log 2>&1 ||
+  { echo "FAIL: branch of a branch"; cat branch2.log; exit 1; }
+mkdir lonely && cp obs_full/checkpoint_000007.h5 lonely/
+sed -e "s#directory: $work/branch#directory: $work/branch3#" branch.yaml > branch3.yaml
+"$talus" run branch3.yaml --restart lonely/checkpoint_000007.h5 > branch3.log 2>&1 || { echo "FAIL: lonely"; cat branch3.log; exit 1; }
+grep -q "2 of the 2 outputs the checkpoint lists are not in lonely (moved or removed?): the series lists the 0 that are" branch3.log ||
+  { echo "FAIL: lonely note"; cat branch3.log; exit 1; }
+/usr/bin/python3 - "$work" <<'PY'
+import csv, os, sys, xml.etree.ElementTree as ET
+import vtk
+work = sys.argv[1]
+def series(d, name):
+    return [(float(e.get("timestep")), e.get("file")) for e in ET.parse(os.path.join(work, d, name + ".pvd")).getroot().iter("DataSet")]
+def opened(path):
+    reader = vtk.vtkXMLPolyDataReader() if path.endswith(".vtp") else vtk.vtkXMLPUnstructuredGridReader()
+    reader.SetFileName(path)
+    reader.Update()
+    return reader.GetOutput()
+checked = 0
+for d, times in (("branch", [0.05 * k for k in range(7)]), ("branch2", [0.05 * k for k in range(6)]),
+                 ("branch3", [0.1, 0.15, 0.2, 0.25, 0.3])):
+    for name in ("particles", "contacts", "obstacles"):
+        entries = series(d, name)
+        assert [round(t, 12) for t, _ in entries] == [round(t, 12) for t in times], (d, name, entries)
+        for t, f in entries:
+            path = os.path.join(work, d, f)
+            assert os.path.isfile(path), path
+            g = opened(path)
+            assert g.GetNumberOfPoints() == 128 if name == "particles" else g is not None, (path, g.GetNumberOfPoints())
+            checked += 1
+# branch3 numbers its files after the checkpoint's two outputs: nothing is renumbered.
+assert series("branch3", "particles")[0][1] == "particles_000002.pvtu"
+# The parent's outputs are shared, not copied; the tables continue it: the
+# branch repeats the straight run to 0.2 s, row for row.
+for f in ("particles_000001.pvtu", "particles_000001_0.vtu", "contacts_000000_0.vtu", "obstacles_000001.vtp"):
+    assert os.stat(os.path.join(work, "branch", f)).st_ino == os.stat(os.path.join(work, "obs_full", f)).st_ino, f
+for table in ("obstacle_forces.csv", "energy.csv"):
+    parent = list(csv.reader(open(os.path.join(work, "obs_full", table))))
+    branch = list(csv.reader(open(os.path.join(work, "branch", table))))
+    steps = 30 if table == "obstacle_forces.csv" else 31                # energy.csv has a row for t = 0
+    assert len(branch) == steps + 1 and branch[:len(parent)] == parent, (table, len(branch), len(parent))
+print(f"cli ok: branches: {checked} files listed in their .pvd series, each opened; parent unchanged, outputs hard-linked")
+PY
+
+# Re-running into a directory that holds an older run (the obstacle case's
+# 33 files: 3 checkpoints, 3 series of 5 outputs, 2 tables): refused with
+# exit 2 naming the key, its line and the directory, and nothing written; with
+# --overwrite the older run's files go (a file of the user's stays), so the
+# directory holds exactly the new run's files. A branch into a used
+# directory is refused the same way.
+before=$(snapshot obs_full)
+sed -e "s#directory: $work/obs#directory: $work/obs_full#" -e 's/end: 0.2/end: 0.1/' obs.yaml > again.yaml
+set +e
+"$talus" run again.yaml > again.log 2>&1
+code=$?
+set -e
+[ "$code" -eq 2 ] && grep -q "talus: error: again.yaml:3: output.directory = $work/obs_full: holds the files of an older run: checkpoint_000007.h5, checkpoint_000014.h5, checkpoint_000020.h5, contacts.pvd, ... (33 files)" again.log ||
+  { echo "FAIL: re-run into a used directory: exit $code"; cat again.log; exit 1; }
+[ "$(snapshot obs_full)" = "$before" ] || { echo "FAIL: a refused re-run wrote into the directory"; exit 1; }
+set +e
+"$talus" run branch.yaml --restart obs_full/checkpoint_000014.h5 > again_branch.log 2>&1
+code=$?
+set -e
+[ "$code" -eq 2 ] && grep -q "output.directory = $work/branch: holds the files of an older run" again_branch.log ||
+  { echo "FAIL: branch into a used directory: exit $code"; cat again_branch.log; exit 1; }
+echo "keep me" > obs_full/notes.txt
+"$talus" run again.yaml --overwrite > overwrite.log 2>&1 || { echo "FAIL: --overwrite"; cat overwrite.log; exit 1; }
+/usr/bin/python3 - "$work/obs_full" <<'PY'
+import os, sys, xml.etree.ElementTree as ET
+out = sys.argv[1]
+expected = {"notes.txt", "energy.csv", "obstacle_forces.csv", "checkpoint_000007.h5", "checkpoint_000010.h5"}
+for name in ("particles", "contacts", "obstacles"):
+    expected.add(name + ".pvd")
+    for e in ET.parse(os.path.join(out, name + ".pvd")).getroot().iter("DataSet"):
+        f = e.get("file")
+        expected.add(f)
+        if f.endswith(".pvtu"):
+            expected.add(f.replace(".pvtu", "_0.vtu"))
+found = set(os.listdir(out))
+assert found == expected, ("stale:", sorted(found - expected), "missing:", sorted(expected - found))
+assert len(open(os.path.join(out, "obstacle_forces.csv")).readlines()) == 11      # header + 10 steps to 0.1 s
+assert open(os.path.join(out, "notes.txt")).read() == "keep me\n"
+print(f"cli ok: --overwrite left {len(found)} files, all of the new run (3 outputs) and notes.txt")
+PY

@@ -82,3 +82,25 @@ TEST_CASE("step control: easy Newton solves bring the step back twice as fast", 
   CHECK(easy_steps == (hard_steps + 3) / 2);
   CHECK(hard_steps == 2 * hard.patience());
 }
+
+TEST_CASE("step control: a step shortened to land on an output time leaves the step as it was", "[solver]") {
+  // The run shortens a step to land on an output time (docs/output.md#output-times):
+  // its success counts as any other, and the next step is the full one.
+  StepController control(1.0);
+  control.succeeded();  // the shortened step of 0.3, accepted
+  CHECK(control.step() == 1.0);
+  // A failed shortened step of 0.3 halves that, not the step of 1: half of 1
+  // would be the same 0.3 again once shortened to the output time.
+  CHECK(control.failed(0.3) == 0.15);
+  // A failed full step halves it, whatever the attempt would have allowed.
+  StepController full(1.0);
+  CHECK(full.failed(1.0) == 0.5);
+  CHECK(full.failed() == 0.25);
+  // A checkpoint's step above the case's time.step (a restart with a smaller
+  // step) is capped at it; a smaller one (after a cut-back) is kept.
+  StepController restarted(0.5);
+  restarted.restore({1.0, 3, 0, 10});
+  CHECK(restarted.step() == 0.5);
+  restarted.restore({0.125, 3, 0, 10});
+  CHECK(restarted.step() == 0.125);
+}

@@ -1,5 +1,6 @@
 #pragma once
 // One run of a case: the particles, the grid, and the implicit time step.
+#include <chrono>
 #include <iosfwd>
 #include <limits>
 #include <memory>
@@ -9,7 +10,9 @@
 #include "talus/grid/partition.hpp"
 #include "talus/io/checkpoint.hpp"
 #include "talus/io/config.hpp"
+#include "talus/io/run_directory.hpp"
 #include "talus/io/vtk_output.hpp"
+#include "talus/run_progress.hpp"
 #include "talus/solver/newton.hpp"
 
 namespace talus {
@@ -25,8 +28,19 @@ struct StepReport {
   double contact_seconds = 0;     // detection + natural-map rows (part of solve_seconds)
 };
 
+// How a run ended: at time.end, on SIGINT/SIGTERM (after a step, with a
+// checkpoint), or on an exception (Simulation::summary() then holds what it did).
+enum class RunStatus { completed, interrupted, failed };
+
 struct RunSummary {
+  RunStatus status = RunStatus::completed;
+  // The counts are of this run, from its start (t = 0, or the checkpoint it
+  // restarted from); steps_before and cutbacks_before are those of the run up
+  // to that checkpoint (0 from t = 0), so steps_before + steps counts the
+  // accepted steps since t = 0, as checkpoint_<steps>.h5 and the progress line do.
   long steps = 0, cutbacks = 0, newton_iterations = 0, linear_iterations = 0, outputs = 0;
+  long steps_before = 0, cutbacks_before = 0;
+  double start_time = 0, time = 0, end_time = 0;  // s: the run's first and last time, and time.end
   int interrupted_by = 0;        // SIGINT or SIGTERM if the run stopped on a signal
   std::string last_checkpoint;   // empty if none was written
   long max_step_newton_iterations = 0;  // over the accepted steps (totals include failed attempts)
@@ -68,7 +82,13 @@ class Simulation {
   // Runs to config.time.end with cut-backs; writes VTK output if enabled, and
   // HDF5 checkpoints (docs/checkpoints.md). A SIGINT or SIGTERM received
   // during the run ends it after the current step, with a checkpoint.
-  RunSummary run(std::ostream* progress);
+  // `progress` (rank 0's is used): the progress line as `options` say, and
+  // the run's messages (cut-backs, warnings, checkpoints); nullptr: silent.
+  RunSummary run(std::ostream* progress, const ProgressOptions& options = {});
+  // The summary of the last run(), also when it threw (status failed).
+  const RunSummary& summary() const { return summary_; }
+  // After restart(): the output directory of the checkpoint's run.
+  std::string continued_directory() const { return resume_ ? resume_->output_directory : std::string(); }
 
   // Continue from a checkpoint: particles, time, step control and output
   // series come from the file; run() then goes on to config.time.end.
@@ -123,6 +143,11 @@ class Simulation {
   const PointCloud& grid_points() const { return grid_points_; }
 
  private:
+  RunSummary run_steps(std::ostream* progress, const ProgressOptions& options,
+                       std::chrono::steady_clock::time_point start);
+  // The largest particle speed |v_p| and the largest particle coordinate
+  // along x (the run-out front), over all ranks; collective.
+  std::pair<double, double> motion_extremes() const;
   void check_finite() const;
   void repartition(const Ownership<dim>& ownership);
   // last_acceleration_ to and from a checkpoint's rows (RunState).
@@ -196,6 +221,7 @@ class Simulation {
   ParticleEnergy particle_energy_;
   PetscInt last_system_size_ = 0;
   long rebalances_ = 0;
+  RunSummary summary_;
 };
 
 // Applies the case file's solver.petsc_options under the talus_ prefix,

@@ -157,8 +157,9 @@ Description describe_field(const std::string& name) {
 // text, the same day; 1 (no attribute): before, without a fingerprint.
 // 4: the energy balance; 5: materials fingerprinted from their parsed
 // parameters (2026-11-25); 6: /obstacles (the obstacle loads) and the
-// self-describing attributes (units, component order, case file).
-constexpr int checkpoint_format = 6;
+// self-describing attributes (units, component order, case file); 7: the
+// output directory (restart branches).
+constexpr int checkpoint_format = 7;
 
 // A damaged checkpoint: what is wrong with it, for "not a valid talus checkpoint: <what>".
 struct Damaged : std::runtime_error {
@@ -374,6 +375,13 @@ void write_checkpoint(const std::string& path, const Particles<dim>& particles, 
     outputs.precision(17);
     for (const auto& [t, file_name] : state.outputs) outputs << t << ' ' << file_name << '\n';
     write_text_attribute(run.id, "outputs", outputs.str());
+    // Relative to the checkpoint's directory: a restart finds the outputs
+    // from wherever it runs, also after the whole run directory was moved.
+    const std::filesystem::path here = std::filesystem::absolute(path).parent_path().lexically_normal();
+    const std::filesystem::path there = std::filesystem::absolute(state.output_directory).lexically_normal();
+    std::string relative = there.lexically_relative(here).string();
+    if (relative.empty()) relative = there.string();  // no relative path (another root)
+    write_text_attribute(run.id, "output_directory", relative);
     std::ostringstream ownership;  // one line per axis: points per process column
     for (const auto& axis : state.grid_ownership) {
       for (int n : axis) ownership << n << ' ';
@@ -456,6 +464,13 @@ RunState read_state(const std::string& path, hid_t file_id, int dim) {
   for (int k = 0; k < EnergyTerms::count; ++k)
     state.energy_terms[k] =
         read_attribute<double>(run.id, (std::string("energy_") + EnergyTerms::names()[k]).c_str(), H5T_NATIVE_DOUBLE);
+  {
+    const std::filesystem::path stored = read_text_attribute(run.id, "output_directory");
+    const std::filesystem::path here = std::filesystem::path(path).parent_path();
+    std::filesystem::path directory = (stored.is_absolute() ? stored : here / stored).lexically_normal();
+    if (directory.filename().empty() && directory.has_relative_path()) directory = directory.parent_path();  // "out/"
+    state.output_directory = directory.empty() ? "." : directory.string();
+  }
   {
     std::istringstream in(read_text_attribute(run.id, "outputs"));
     double t;

@@ -387,6 +387,7 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
   if (root.has("output")) {
     YamlSection o = root.section("output");
     c.output.directory = o.text("directory", "output");
+    c.output.directory_key = o.where("directory");
     c.output.interval = o.real("interval", 0.0);
     if (!(c.output.interval >= 0)) o.fail_value("interval", "must be >= 0");
     c.output.max_outputs = o.integer("max_outputs", OutputConfig::default_max_outputs);
@@ -412,8 +413,10 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
     const std::string problem = directory_problem(c.output.directory);
     if (!problem.empty())
       throw InputError(c.source_file + ": output.directory = output (the default, no output section): " + problem);
+    c.output.directory_key = c.source_file + ": output.directory (the default, no output section)";
   }
   c.checkpoint.directory = c.output.directory;
+  c.checkpoint.directory_key = c.output.directory_key;
   c.checkpoint.enabled = c.output.enabled;
   if (root.has("checkpoint")) {
     YamlSection k = root.section("checkpoint");
@@ -422,6 +425,7 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
     if (c.checkpoint.interval < 0)
       k.fail_value("interval", "must be >= 0 (steps; 0: only at the end)");
     c.checkpoint.directory = k.text("directory", c.output.directory);
+    if (k.has("directory")) c.checkpoint.directory_key = k.where("directory");
     if (c.checkpoint.enabled && k.has("directory")) {
       const std::string problem = directory_problem(c.checkpoint.directory);
       if (!problem.empty()) k.fail_value("directory", c.checkpoint.directory, problem);

@@ -1,4 +1,5 @@
 #include "talus/io/vtk_output.hpp"
+#include "talus/io/run_directory.hpp"
 
 #include <vtkCellArray.h>
 #include <vtkCellData.h>
@@ -160,7 +161,7 @@ std::string VtkSeries<dim>::write(const Particles<dim>& particles, double time) 
   MPI_Comm_rank(comm_, &rank);
   MPI_Comm_size(comm_, &size);
   std::ostringstream stem;
-  stem << name_ << "_" << std::setw(6) << std::setfill('0') << entries_.size();
+  stem << name_ << "_" << std::setw(6) << std::setfill('0') << next_number_;
   const std::string file = directory_ + "/" + stem.str() + ".pvtu";
   // The files are written in a staging directory and moved into place once
   // every rank has written its piece, the .pvtu last and then the .pvd: an
@@ -203,13 +204,18 @@ std::string VtkSeries<dim>::write(const Particles<dim>& particles, double time) 
     std::filesystem::remove(staging);
   }
   entries_.emplace_back(time, stem.str() + ".pvtu");
+  ++next_number_;
   if (rank == 0) write_pvd();
   return file;
 }
 
 template <int dim>
-void VtkSeries<dim>::resume(const std::vector<std::pair<double, std::string>>& entries) {
+void VtkSeries<dim>::resume(const std::vector<std::pair<double, std::string>>& entries, long next_number) {
   entries_ = entries;
+  next_number_ = next_number;
+  if (next_number_ < 0)
+    for (const auto& entry : entries_) next_number_ = std::max(next_number_, output_number(entry.second) + 1);
+  next_number_ = std::max(next_number_, 0L);
   int rank;
   MPI_Comm_rank(comm_, &rank);
   if (rank == 0) write_pvd();
@@ -238,16 +244,18 @@ std::string numbered(const std::string& name, std::size_t index) {
   return stem.str();
 }
 
-// The entries of a series written alongside the particles: the particle
-// output k is particles_k; the file of this series at that time is
-// <name>_k<extension>, if it exists.
+// The entries of a series written alongside the particles: at the time of
+// the particle output particles_NNNNNN.pvtu, the file of this series is
+// <name>_NNNNNN<extension>, if it exists.
 std::vector<std::pair<double, std::string>> companion_entries(
     const std::string& directory, const std::string& name, const std::string& extension,
     const std::vector<std::pair<double, std::string>>& particle_entries) {
   std::vector<std::pair<double, std::string>> entries;
-  for (std::size_t k = 0; k < particle_entries.size(); ++k) {
-    const std::string file = numbered(name, k) + extension;
-    if (std::filesystem::exists(directory + "/" + file)) entries.emplace_back(particle_entries[k].first, file);
+  for (const auto& [time, particle_file] : particle_entries) {
+    const long number = output_number(particle_file);
+    if (number < 0) continue;
+    const std::string file = numbered(name, static_cast<std::size_t>(number)) + extension;
+    if (std::filesystem::exists(directory + "/" + file)) entries.emplace_back(time, file);
   }
   return entries;
 }

@@ -76,6 +76,10 @@ int YamlSection::line_of(const std::string& key) const {
 
 std::string YamlSection::key_path(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
 
+std::string YamlSection::where(const std::string& key) const {
+  return file_ + ":" + std::to_string(line_of(key)) + ": " + key_path(key);
+}
+
 void YamlSection::fail(const std::string& key, const std::string& message) const {
   throw InputError(file_ + ":" + std::to_string(line_of(key)) + ": " + key_path(key) + ": " + message);
 }

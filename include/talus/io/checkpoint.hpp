@@ -36,6 +36,10 @@ struct RunState {
   // Output series: the next output time and the files written so far.
   double next_output = 0.0;
   std::vector<std::pair<double, std::string>> outputs;
+  // Where those outputs are: the run's output.directory. Stored relative to
+  // the checkpoint file's directory (so that a run directory moved as a whole
+  // keeps working), read back as a path from the current directory.
+  std::string output_directory;
   // The grid's points per process column along each axis when the checkpoint
   // was written (empty in checkpoints from before balanced ranks).
   std::vector<std::vector<int>> grid_ownership;

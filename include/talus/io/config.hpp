@@ -88,12 +88,15 @@ struct OutputConfig {
   // end / interval above this is an input error (docs/case_file.md#output).
   static constexpr long default_max_outputs = 100000;
   long max_outputs = default_max_outputs;
+  // How messages name the key: "case.yaml:12: output.directory".
+  std::string directory_key = "output.directory";
 };
 
 struct CheckpointConfig {
   bool enabled = true;     // a checkpoint at the end of the run and on SIGINT/SIGTERM (default: output.enabled)
   long interval = 0;       // also every `interval` steps (0: none in between)
   std::string directory;   // default: output.directory
+  std::string directory_key = "checkpoint.directory";  // as OutputConfig::directory_key
 };
 
 struct MaterialConfig {

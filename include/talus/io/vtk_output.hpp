@@ -42,15 +42,21 @@ class VtkSeries {
   // Writes the particle fields; returns the .pvtu path.
   std::string write(const Particles<dim>& particles, double time);
 
-  // Continues a series after a restart: the outputs written before it.
-  void resume(const std::vector<std::pair<double, std::string>>& entries);
+  // Continues a series after a restart: the outputs written before it, and
+  // the number of the next file (after the last the checkpoint listed,
+  // whether or not its file is still there: continue_series; -1: after the
+  // last of `entries`).
+  void resume(const std::vector<std::pair<double, std::string>>& entries, long next_number = -1);
   const std::vector<std::pair<double, std::string>>& entries() const { return entries_; }
+  // NNNNNN of the next output's files (particles_NNNNNN.pvtu).
+  long next_number() const { return next_number_; }
 
  private:
   void write_pvd() const;
   MPI_Comm comm_;
   std::string directory_, name_, pvd_;
   std::vector<std::pair<double, std::string>> entries_;
+  long next_number_ = 0;
   vtkMPICommunicator* communicator_ = nullptr;
   vtkMPIController* controller_ = nullptr;
 };

@@ -66,6 +66,9 @@ class YamlSection {
   // The value of `key` as written in the file: its scalar text, or a list or
   // map on one line; empty if the key is absent.
   std::string written(const std::string& key) const;
+  // "file:line: path.key", how a message names a key checked after the file
+  // was read (its line, or the section's if the key is absent).
+  std::string where(const std::string& key) const;
 
   // Reject keys that were never read.
   void finish() const;

@@ -7,10 +7,13 @@
 // the flow: the patience doubles (up to max_patience), so a run does not
 // retry a step that keeps failing every few steps. Once the nominal step has
 // held for 4 x patience steps, the patience relaxes back by halves.
+// A step shortened to land on an output time or time.end leaves h as it is:
+// the next step is the full step() again.
 // A step whose Newton solve was easy (at most easy_iterations iterations)
 // counts twice towards the regrowth: the run returns to larger steps as soon
 // as Newton shows it has room, not after a fixed count.
 #include <algorithm>
+#include <limits>
 
 namespace talus {
 
@@ -36,17 +39,22 @@ class StepController {
     long patience, calm, since_growth;
   };
   State state() const { return {h_, patience_, calm_, since_growth_}; }
+  // A checkpoint's state; its step is capped at this controller's nominal
+  // step (a restart may ask for a smaller time.step).
   void restore(const State& s) {
-    h_ = s.step;
+    h_ = std::min(s.step, nominal_);
     patience_ = s.patience;
     calm_ = s.calm;
     since_growth_ = s.since_growth;
   }
 
-  // The step of size step() failed: halve it. Returns the new step.
-  double failed() {
+  // The step of size step() failed: halve it. Returns the new step. A step
+  // the run had shortened (to land on an output time or time.end) failed at
+  // `attempted` < step(): half of that, since a retry at half of step() could
+  // be the same shortened step again.
+  double failed(double attempted = std::numeric_limits<double>::infinity()) {
     if (since_growth_ <= patience_) patience_ = std::min(2 * patience_, max_patience);
-    h_ *= 0.5;
+    h_ = 0.5 * std::min(h_, attempted);
     calm_ = 0;
     since_growth_ = patience_ + 1;  // one back-off per regrowth
     return h_;
