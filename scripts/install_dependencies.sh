@@ -6,8 +6,27 @@
 # Idempotent: when every package is already installed it does nothing (no
 # apt-get update). Run as root, or as a user with sudo.
 #
-#   bash scripts/install_dependencies.sh
+#   bash scripts/install_dependencies.sh           # install what is missing
+#   bash scripts/install_dependencies.sh --check   # only list what is missing (exit 1 if any)
+#
+# It never removes a package: it installs with --no-install-recommends, after
+# simulating the installation (apt-get install -s), and stops with a message,
+# changing nothing, if apt would remove anything. In particular it stops if
+# python3-paraview is installed: that package (ParaView's Python, recommended
+# by `apt-get install paraview`) Conflicts: python3-vtk9, which libvtk9-dev
+# depends on, so the two cannot be installed together by dpkg. For ParaView on
+# a build machine use scripts/install_paraview.sh instead (docs/output.md,
+# "Installing ParaView").
 set -euo pipefail
+
+PROG=install_dependencies
+check_only=0
+case "${1:-}" in
+  "") ;;
+  --check) check_only=1 ;;
+  -h|--help) sed -n '2,/^set -euo/p' "$0" | sed -e '$d' -e 's/^# \{0,1\}//'; exit 0 ;;
+  *) echo "$PROG: error: unknown argument '$1' (--check or nothing)" >&2; exit 2 ;;
+esac
 
 packages=(
   build-essential cmake ninja-build pkg-config
@@ -17,38 +36,84 @@ packages=(
   python3-yaml
 )
 
+if ! command -v dpkg-query >/dev/null 2>&1; then
+  echo "$PROG: error: dpkg-query not found; this script is for Debian 12." >&2
+  exit 1
+fi
+installed() { [[ "$(dpkg-query -W -f='${Status}' "$1" 2>/dev/null || true)" == "install ok installed" ]]; }
+
 missing=()
 for p in "${packages[@]}"; do
-  status=$(dpkg-query -W -f='${Status}' "$p" 2>/dev/null || true)
-  if [[ "$status" != "install ok installed" ]]; then
-    missing+=("$p")
-  fi
+  installed "$p" || missing+=("$p")
 done
 
 if [[ ${#missing[@]} -eq 0 ]]; then
-  echo "install_dependencies: all ${#packages[@]} packages are already installed"
+  echo "$PROG: all ${#packages[@]} packages are already installed"
   exit 0
 fi
 
-echo "install_dependencies: installing ${#missing[@]} missing package(s): ${missing[*]}"
+paraview_conflict() {
+  cat >&2 <<EOF
+$PROG: error: python3-paraview is installed (ParaView's Python: pvpython,
+  pvbatch; \`apt-get install paraview\` installs it as a recommendation). It
+  Conflicts: python3-vtk9, which libvtk9-dev depends on, so installing the
+  build set would remove it. Nothing changed. To build talus and keep ParaView:
+      sudo apt-get remove python3-paraview     # keeps the package paraview (the GUI)
+      bash scripts/install_dependencies.sh     # this script again
+      bash scripts/install_paraview.sh         # pvpython/pvbatch beside python3-vtk9
+  (docs/output.md, "Installing ParaView".)
+EOF
+}
+
+if [[ $check_only -eq 1 ]]; then
+  echo "$PROG: ${#missing[@]} of ${#packages[@]} packages missing: ${missing[*]}" >&2
+  if installed python3-paraview; then paraview_conflict; fi
+  exit 1
+fi
+
+if installed python3-paraview; then
+  paraview_conflict
+  exit 1
+fi
+
+echo "$PROG: installing ${#missing[@]} missing package(s): ${missing[*]}"
 
 if [[ $(id -u) -eq 0 ]]; then
   as_root=()
 elif command -v sudo >/dev/null 2>&1; then
   as_root=(sudo)
 else
-  echo "install_dependencies: error: installing packages needs root, and sudo is not available." >&2
+  echo "$PROG: error: installing packages needs root, and sudo is not available." >&2
   echo "  Run this script as root, or install these packages first:" >&2
   echo "  ${missing[*]}" >&2
   exit 1
 fi
 
 if ! command -v apt-get >/dev/null 2>&1; then
-  echo "install_dependencies: error: apt-get not found; this script is for Debian 12." >&2
+  echo "$PROG: error: apt-get not found; this script is for Debian 12." >&2
   exit 1
 fi
 
 "${as_root[@]}" apt-get update
+simulation=$(apt-get install -s --no-install-recommends "${packages[@]}" 2>&1) || {
+  echo "$PROG: error: apt-get cannot install the packages:" >&2
+  echo "$simulation" | grep -E '^(E:|W:| )' >&2 || echo "$simulation" >&2
+  exit 1
+}
+removals=$(echo "$simulation" | sed -n 's/^Remv \([^ ]*\).*/\1/p')
+if [[ -n "$removals" ]]; then
+  echo "$PROG: error: installing would remove: $(echo $removals). Nothing changed." >&2
+  echo "  (apt-get install -s --no-install-recommends ${missing[*]} shows why; remove or" >&2
+  echo "  keep those packages yourself, then run this script again.)" >&2
+  exit 1
+fi
 "${as_root[@]}" env DEBIAN_FRONTEND=noninteractive \
   apt-get install -y --no-install-recommends "${packages[@]}"
-echo "install_dependencies: done"
+
+still=()
+for p in "${packages[@]}"; do installed "$p" || still+=("$p"); done
+if [[ ${#still[@]} -gt 0 ]]; then
+  echo "$PROG: error: still not installed: ${still[*]}" >&2
+  exit 1
+fi
+echo "$PROG: done (ParaView on this machine: bash scripts/install_paraview.sh, not apt-get install paraview)"

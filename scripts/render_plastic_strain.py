@@ -6,11 +6,16 @@ seminar's figures (t = 0, 1.7, 3.3, 5 s), to one PNG.
     xvfb-run -a /usr/bin/python3 scripts/render_plastic_strain.py \\
         output/slope_collapse_psi0/particles.pvd --times 0 1.7 3.3 5 --out slope.png
 
-Draws with VTK's own rendering pipeline (python3-vtk9) in an offscreen render
-window, which on Debian still needs an X server: run it under `xvfb-run -a`
-(package xvfb, with xauth). Options, the layout and the colours are described
-in docs/output.md ("render_plastic_strain.py: the plastic strain rendered
-with VTK", under "Plots from a run").
+Draws with VTK's own rendering pipeline in an offscreen render window, which
+on Debian still needs an X server: run it under `xvfb-run -a` (package xvfb,
+with xauth). It uses only the `vtk` module and numpy, so it runs under
+/usr/bin/python3 with python3-vtk9 and equally under ParaView's pvbatch or
+pvpython with ParaView's own VTK (`xvfb-run -a pvbatch
+scripts/render_plastic_strain.py ...`; scripts/install_paraview.sh installs
+them beside python3-vtk9): the pictures are the same (tests/
+test_render_script.sh compares them). Options, the layout and the colours are
+described in docs/output.md ("render_plastic_strain.py: the plastic strain
+rendered with VTK", under "Plots from a run").
 
 - Each requested time uses the nearest written output; its time is the
   panel's label ("t = 1.7 s").
@@ -30,9 +35,11 @@ with VTK", under "Plots from a run").
   (RGB 153, 153, 153) behind the particles; --no-obstacles leaves them out.
 
 For every panel it prints one line giving its pixel viewport and the world
-window mapped onto it (used by tests/test_render_script.sh):
+window mapped onto it (used by tests/test_render_script.sh), then one line with
+the image size, the colour scale, the particle spacing and the VTK version:
 
     panel 1: t = 1.7 s, file .../particles_000017.pvtu, viewport x 450 900 y 53 211 px from top-left, world x -0.479 16.479 y -0.477 5.477 m
+    render_plastic_strain: wrote slope.png (1800 x 295 px, 4 panels, cumulative_plastic_strain in [0, 1], 2D, particle spacing 0.1 m, VTK 9.1.0)
 
 Exit status 1 with a message naming the culprit on a missing file, an empty
 series, an unknown field or component, or no X display.
@@ -332,7 +339,7 @@ def main():
 
     if not os.environ.get("DISPLAY"):
         fail("no X display: run under xvfb-run -a (Debian package xvfb), e.g. "
-             "xvfb-run -a /usr/bin/python3 scripts/render_plastic_strain.py ...")
+             "xvfb-run -a /usr/bin/python3 scripts/render_plastic_strain.py ... (or xvfb-run -a pvbatch ...)")
 
     # Layout (pixels). World window: the union bounding box of the particle
     # centres, widened by d/2 (the glyphs) and 3 % of its larger side.
@@ -464,7 +471,7 @@ def main():
     if not os.path.isfile(a.out):
         fail(f"could not write {a.out}")
     print(f"{PROG}: wrote {a.out} ({width} x {height} px, {n} panel{'s' if n != 1 else ''}, {a.field} in [{vmin:g}, {vmax:g}], "
-          f"{'2D' if dim == 2 else '3D'}, particle spacing {d:g} m)")
+          f"{'2D' if dim == 2 else '3D'}, particle spacing {d:g} m, VTK {vtk.vtkVersion.GetVTKVersion()})")
 
 
 if __name__ == "__main__":

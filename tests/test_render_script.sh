@@ -1,5 +1,7 @@
 #!/usr/bin/env bash
-# scripts/render_plastic_strain.py (VTK offscreen rendering under xvfb-run).
+# scripts/render_plastic_strain.py (VTK offscreen rendering under xvfb-run),
+# under /usr/bin/python3 (python3-vtk9) and, when there is one, ParaView's
+# pvbatch (the same pictures).
 #  1. A synthetic particle series written here with VTK (3 outputs of 14
 #     particles at known positions with known values, a box obstacle), drawn
 #     in a row (squares, obstacles) and in a column (discs, a vector
@@ -12,6 +14,14 @@
 #     the t = 0 panel is all strain-0 colour, the last one has yielded colours.
 #  3. Missing file, empty series, unknown field or component, no display:
 #     exit 1 and a message naming the culprit.
+#  4. ParaView's pvbatch, if found ($TALUS_PVBATCH, else
+#     /opt/talus-paraview/bin/pvbatch from scripts/install_paraview.sh, else
+#     pvbatch on the PATH; skipped with a message if there is none): the
+#     pictures of 1, 2 and of a short 3D run drawn again under pvbatch pass
+#     the same checks and are the same pictures as under python3 (same size,
+#     same panel geometry, no pixel of a plot differing by more than 2/255,
+#     at most 0.2 % of all pixels, i.e. text, differing); a missing file
+#     fails the same way.
 set -euo pipefail
 talus=$1
 repo=$2
@@ -93,24 +103,29 @@ write_pvd("empty.pvd", [])
 write_pvd("broken.pvd", [(0.0, "particles_000000.vtu"), (0.5, "no_such_output.vtu")])
 PY
 
-run() {  # run name args...: the script under xvfb-run, stdout to name.log
-  local name=$1
-  shift
-  local start=$(date +%s%N)
-  xvfb-run -a /usr/bin/python3 "$script" "$@" > "$name.log" 2> "$name.err" \
-    || { echo "FAIL: render_plastic_strain.py $*"; cat "$name.log" "$name.err"; exit 1; }
-  echo "$name: $(( ($(date +%s%N) - start) / 1000000 )) ms (xvfb-run included)"
+# The pictures (name: arguments); each is drawn to name.png, its output in name.log.
+declare -A pictures=(
+  [row]='syn/particles.pvd --times 0.1 0.45 2 --width 300 --title synthetic'
+  [column]='syn/particles.pvd --times 0 1 --width 200 --layout column --glyph disc --no-obstacles --field velocity:1 --vmin -1 --vmax 1'
+  [real]='out/particles.pvd --times 0 0.1 0.2 --width 300'
+  [block]='out3/particles.pvd --times 0 0.02 --field velocity --width 300'
+)
+render() {  # render interpreter name: picture name under xvfb-run, to name.png, stdout to name.log
+  local interp=$1 name=$2 start=$(date +%s%N)
+  # shellcheck disable=SC2086  # the arguments above are split on spaces
+  xvfb-run -a "$interp" "$script" ${pictures[${name%_pv}]} --out "$name.png" > "$name.log" 2> "$name.err" \
+    || { echo "FAIL: $interp render_plastic_strain.py ${pictures[${name%_pv}]}"; cat "$name.log" "$name.err"; exit 1; }
+  echo "$name: $(( ($(date +%s%N) - start) / 1000000 )) ms under $interp (xvfb-run included)"
 }
-run row syn/particles.pvd --times 0.1 0.45 2 --width 300 --title "synthetic" --out row.png
-run column syn/particles.pvd --times 0 1 --width 200 --layout column --glyph disc --no-obstacles \
-  --field velocity:1 --vmin -1 --vmax 1 --out column.png
+render /usr/bin/python3 row
+render /usr/bin/python3 column
 
-/usr/bin/python3 - "$work" "$repo" <<'PY'
+cat > check_synthetic.py <<'PY'
 import os, re, sys
 import numpy as np
 import vtk
 from vtk.util.numpy_support import vtk_to_numpy
-work, repo = sys.argv[1:]
+work, repo, suffix = sys.argv[1:]   # suffix: "" (python3) or "_pv" (pvbatch) in the file names
 sys.path.insert(0, os.path.join(repo, "scripts"))
 import render_plastic_strain as rps  # noqa: E402  (the table only; the expected index is computed here)
 
@@ -160,6 +175,7 @@ worst = 0
 
 def check(name, n_expected, W, field, vmin, vmax, shape, obstacles):
     global worst
+    name += suffix
     img = png(name + ".png")
     P = panels(name)
     assert len(P) == n_expected, (name, P)
@@ -233,30 +249,31 @@ label_h, bar_h = max(16, round(0.05 * 300)), round(3.8 * max(16, round(0.05 * 30
 assert Prow[0]["vy"][0] == round(1.4 * label_h) + label_h and row.shape[0] == Prow[0]["vy"][1] + bar_h, (Prow, row.shape)
 label_c = max(16, round(0.05 * 200))
 assert col.shape[0] == 2 * (label_c + Pcol[0]["vy"][1] - Pcol[0]["vy"][0]) + round(3.8 * label_c), col.shape
-print(f"synthetic: max colour error inside the glyphs {worst} (tolerance {tol}), background exactly white")
+print(f"synthetic{suffix}: max colour error inside the glyphs {worst} (tolerance {tol}), background exactly white")
 PY
+/usr/bin/python3 check_synthetic.py "$work" "$repo" ""
 
 # --- 2. a short real run (the first 0.2 s of the psi = 0 column) ----------
 sed -e "s#directory: .*#directory: $work/out#" -e 's/end: .*/end: 0.2/' -e 's/interval: .*/interval: 0.1/' \
   "$repo/inputs/column_collapse_psi0.yaml" > run.yaml
 "$talus" run run.yaml > run.log 2>&1 || { echo "FAIL: talus run"; cat run.log; exit 1; }
-run real out/particles.pvd --times 0 0.1 0.2 --width 300 --out real.png
+render /usr/bin/python3 real
 
-/usr/bin/python3 - "$work" "$repo" <<'PY'
+cat > check_real.py <<'PY'
 import os, re, sys
 import numpy as np
 import vtk
 from vtk.util.numpy_support import vtk_to_numpy
-work, repo = sys.argv[1:]
+work, repo, suffix = sys.argv[1:]
 sys.path.insert(0, os.path.join(repo, "scripts"))
 import render_plastic_strain as rps  # noqa: E402
 table = rps.colour_table()
 r = vtk.vtkPNGReader()
-r.SetFileName(os.path.join(work, "real.png"))
+r.SetFileName(os.path.join(work, f"real{suffix}.png"))
 r.Update()
 w, h, _ = r.GetOutput().GetDimensions()
 img = vtk_to_numpy(r.GetOutput().GetPointData().GetScalars()).reshape(h, w, 3)[::-1].astype(int)
-log = open(os.path.join(work, "real.log")).read()
+log = open(os.path.join(work, f"real{suffix}.log")).read()
 P = re.findall(r"panel \d+: t = (\S+) s, file (.*?), viewport x (\d+) (\d+) y (\d+) (\d+)", log)
 assert [p[0] for p in P] == ["0", "0.1", "0.2"] and all(p[1].endswith(".pvtu") for p in P), P
 assert w == 3 * 300, w
@@ -273,20 +290,47 @@ label, n, n0, n_other = counts[0]
 assert n > 2000 and n0 == n, counts
 label, n, n0, n_other = counts[-1]
 assert n_other > 0.05 * n, counts                  # yielded particles: colours of strain > 0
-print("real run: panels (label, particle px, strain-0 px, other px):", counts)
+print(f"real run{suffix}: panels (label, particle px, strain-0 px, other px):", counts)
 PY
+/usr/bin/python3 check_real.py "$work" "$repo" ""
+
+# A 3D run to compare below (lit spheres, oblique camera): the first two
+# steps of elastic_block_3d.yaml. Here only: the size and spheres in each panel.
+sed -e "s#directory: .*#directory: $work/out3#" -e 's/end: .*/end: 0.02/' -e 's/interval: .*/interval: 0.01/' \
+  "$repo/inputs/elastic_block_3d.yaml" > block.yaml
+"$talus" run block.yaml > block_run.log 2>&1 || { echo "FAIL: talus run (3D)"; cat block_run.log; exit 1; }
+render /usr/bin/python3 block
+cat > check_block.py <<'PY'
+import os, re, sys
+import numpy as np
+import vtk
+from vtk.util.numpy_support import vtk_to_numpy
+work, suffix = sys.argv[1:]
+r = vtk.vtkPNGReader()
+r.SetFileName(os.path.join(work, f"block{suffix}.png"))
+r.Update()
+w, h, _ = r.GetOutput().GetDimensions()
+img = vtk_to_numpy(r.GetOutput().GetPointData().GetScalars()).reshape(h, w, 3)[::-1].astype(int)
+log = open(os.path.join(work, f"block{suffix}.log")).read()
+assert f"({w} x {h} px, 2 panels" in log and ", 3D," in log, (w, h, log)
+P = [tuple(map(int, m)) for m in re.findall(r"viewport x (\d+) (\d+) y (\d+) (\d+)", log)]
+drawn = [int((img[y0:y1, x0:x1] != 255).any(axis=-1).sum()) for x0, x1, y0, y1 in P]
+assert len(P) == 2 and min(drawn) > 0.1 * (P[0][1] - P[0][0]) * (P[0][3] - P[0][2]), (P, drawn)
+print(f"3D block{suffix}: {w} x {h} px, sphere pixels per panel {drawn}")
+PY
+/usr/bin/python3 check_block.py "$work" ""
 
 # --- 3. failures ---------------------------------------------------------------
-expect_fail() {  # expect_fail text args...: exit 1 and text in stderr
+expect_fail() {  # expect_fail text args...: exit 1 and text in stderr (interpreter: $interp)
   local text=$1
   shift
   set +e
-  /usr/bin/python3 "$script" "$@" > fail.out 2> fail.err
+  "${interp:-/usr/bin/python3}" "$script" "$@" > fail.out 2> fail.err
   local rc=$?
   set -e
   [ $rc -eq 1 ] || { echo "FAIL: exit $rc (expected 1) for $*"; cat fail.out fail.err; exit 1; }
   grep -qF -- "$text" fail.err || { echo "FAIL: '$text' not in the message for $*"; cat fail.err; exit 1; }
-  echo "fails as expected: $* -> $(cat fail.err)"
+  echo "fails as expected: ${interp:-/usr/bin/python3} $* -> $(cat fail.err)"
 }
 expect_fail "missing file syn/nothing.pvd" syn/nothing.pvd
 expect_fail "syn/empty.pvd lists no data sets" syn/empty.pvd
@@ -295,4 +339,103 @@ expect_fail "unknown field 'plastic_strain'" syn/particles.pvd --field plastic_s
 expect_fail "component 3 of --field velocity:3 out of range" syn/particles.pvd --field velocity:3
 (unset DISPLAY; expect_fail "no X display: run under xvfb-run" syn/particles.pvd --out nodisplay.png)
 [ ! -e nodisplay.png ] || { echo "FAIL: a PNG written without a display"; exit 1; }
-echo "render_script ok"
+
+# --- 4. the same pictures under ParaView's pvbatch ----------------------------
+pvbatch=${TALUS_PVBATCH:-}
+if [ -z "$pvbatch" ]; then
+  if [ -x /opt/talus-paraview/bin/pvbatch ]; then
+    pvbatch=/opt/talus-paraview/bin/pvbatch
+  else
+    pvbatch=$(command -v pvbatch || true)
+  fi
+fi
+if [ -z "$pvbatch" ]; then
+  echo "render_script: pvbatch part SKIPPED: no pvbatch here (neither /opt/talus-paraview/bin/pvbatch, from scripts/install_paraview.sh, nor pvbatch on the PATH)"
+  echo "render_script ok (python3 only)"
+  exit 0
+fi
+# Which Python modules does it use? (No display needed.) ParaView's own VTK:
+# vtkmodules beside the paraview package (a pvbatch that picked up
+# python3-vtk9's modules would crash, or compare VTK 9.1 with itself).
+cat > probe.py <<'PY'
+import os
+import vtkmodules, paraview
+from paraview.simple import GetParaViewVersion
+from vtkmodules.vtkCommonCore import vtkVersion
+v = GetParaViewVersion()
+here = os.path.dirname(os.path.dirname(vtkmodules.__file__))
+if here != os.path.dirname(os.path.dirname(paraview.__file__)):
+    raise SystemExit(f"vtkmodules ({vtkmodules.__file__}) not beside paraview ({paraview.__file__})")
+print(f"ParaView {v.major}.{v.minor} with VTK {vtkVersion.GetVTKVersion()} from {here}")
+PY
+if ! "$pvbatch" probe.py > probe.log 2>&1; then
+  if [ -n "${TALUS_PVBATCH:-}" ] || grep -qF "talus install_paraview.sh wrapper" "$pvbatch" 2>/dev/null; then
+    echo "FAIL: $pvbatch cannot import paraview.simple:"; grep -vE '^ *[0-9]+ +0x' probe.log | tail -n 5; exit 1
+  fi
+  echo "render_script: pvbatch part SKIPPED: $pvbatch cannot import paraview.simple (Debian's paraview without"
+  echo "  its Python? scripts/install_paraview.sh gives a working one):"; grep -vE '^ *[0-9]+ +0x' probe.log | tail -n 2
+  echo "render_script ok (python3 only)"
+  exit 0
+fi
+echo "pvbatch: $pvbatch: $(tail -n 1 probe.log)"
+pv_vtk=$(sed -n 's/.* with VTK \([^ ]*\) from .*/\1/p' probe.log | tail -n 1)
+for name in row column real block; do
+  render "$pvbatch" "${name}_pv"
+done
+/usr/bin/python3 check_synthetic.py "$work" "$repo" _pv
+/usr/bin/python3 check_real.py "$work" "$repo" _pv
+/usr/bin/python3 check_block.py "$work" _pv
+interp=$pvbatch expect_fail "missing file syn/nothing.pvd" syn/nothing.pvd
+# each picture drawn by the VTK it should be: python3-vtk9's, ParaView's
+py_vtk=$(/usr/bin/python3 -c 'import vtk; print(vtk.vtkVersion.GetVTKVersion())')
+for name in row column real block; do
+  grep -qF "VTK $py_vtk)" "$name.log" || { echo "FAIL: $name.png not drawn with VTK $py_vtk"; cat "$name.log"; exit 1; }
+  grep -qF "VTK $pv_vtk)" "${name}_pv.log" || { echo "FAIL: ${name}_pv.png not drawn with ParaView's VTK $pv_vtk"; cat "${name}_pv.log"; exit 1; }
+done
+echo "drawn with VTK $py_vtk (python3) and VTK $pv_vtk (pvbatch)"
+
+# The same pictures: same size, the same panel lines (geometry computed by the
+# script), in every panel's plot (particles, obstacles, background) no pixel
+# differing by more than 2/255 in a channel (8-bit rounding), and over the
+# whole picture at most 0.2 % of the pixels: only text (labels, title, the
+# colour bar's ticks) may be rasterised differently by the two VTK versions.
+/usr/bin/python3 - "$work" <<'PY'
+import os, re, sys
+import numpy as np
+import vtk
+from vtk.util.numpy_support import vtk_to_numpy
+work = sys.argv[1]
+TOL, LIMIT = 2, 0.002
+
+def png(name):
+    r = vtk.vtkPNGReader()
+    r.SetFileName(os.path.join(work, name))
+    r.Update()
+    w, h, _ = r.GetOutput().GetDimensions()
+    return vtk_to_numpy(r.GetOutput().GetPointData().GetScalars()).reshape(h, w, -1)[::-1].astype(int)
+
+def panel_lines(name):
+    return [l.rstrip("\n") for l in open(os.path.join(work, name + ".log")) if l.startswith("panel ")]
+
+worst = 0.0
+for name in ("row", "column", "real", "block"):
+    a, b = png(name + ".png"), png(name + "_pv.png")
+    assert a.shape == b.shape, (name, a.shape, b.shape)
+    la, lb = panel_lines(name), panel_lines(name + "_pv")
+    assert la == lb and la, (name, la, lb)
+    differ = np.abs(a - b).max(axis=-1) > TOL
+    plots = np.zeros(differ.shape, bool)
+    for l in la:
+        x0, x1, y0, y1 = map(int, re.search(r"viewport x (\d+) (\d+) y (\d+) (\d+)", l).groups())
+        plots[y0:y1, x0:x1] = True
+    text = int(((a != 255).any(axis=-1) & ~plots).sum())      # non-white pixels outside the plots
+    assert not (differ & plots).any(), (name, "pixels of a plot differ", int((differ & plots).sum()))
+    fraction = float(differ.mean())
+    assert fraction <= LIMIT, (name, fraction)
+    worst = max(worst, fraction)
+    print(f"{name}: {a.shape[1]} x {a.shape[0]} px under both, {int(differ.sum())} pixels differ by more than "
+          f"{TOL}/255 ({100 * fraction:.3f} %, limit {100 * LIMIT:g} %), none in the plots; largest difference "
+          f"{int(np.abs(a - b).max())}/255; {text} non-white pixels outside the plots")
+print(f"pvbatch and python3: largest fraction of differing pixels {100 * worst:.3f} %")
+PY
+echo "render_script ok (python3 and pvbatch)"
