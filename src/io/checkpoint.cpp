@@ -378,7 +378,10 @@ void write_checkpoint(const std::string& path, const Particles<dim>& particles, 
     // Relative to the checkpoint's directory: a restart finds the outputs
     // from wherever it runs, also after the whole run directory was moved.
     const std::filesystem::path here = std::filesystem::absolute(path).parent_path().lexically_normal();
-    const std::filesystem::path there = std::filesystem::absolute(state.output_directory).lexically_normal();
+    // No output directory recorded (a state built by hand): the checkpoint's own.
+    const std::filesystem::path there = state.output_directory.empty()
+                                            ? here
+                                            : std::filesystem::absolute(state.output_directory).lexically_normal();
     std::string relative = there.lexically_relative(here).string();
     if (relative.empty()) relative = there.string();  // no relative path (another root)
     write_text_attribute(run.id, "output_directory", relative);
