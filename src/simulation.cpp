@@ -175,8 +175,10 @@ StepReport Simulation<dim>::advance(double h) {
     particle_energy_ = particle_energy();
     initial_energy_ = particle_energy_.total();
   }
-  if (config_.time.integrator == Integrator::explicit_euler) return advance_explicit(h);
+  if (config_.time.integrator == Integrator::explicit_euler && !equilibrium_stage_) return advance_explicit(h);
   const double kinetic_start = local_particle_kinetic();
+  // The equilibrium stage is backward Euler from rest (docs/equilibrium.md).
+  const double theta = equilibrium_stage_ ? 1.0 : config_.time.theta;
   StepReport report;
   report.h = h;
   const auto t0 = std::chrono::steady_clock::now();
@@ -200,15 +202,24 @@ StepReport Simulation<dim>::advance(double h) {
   std::vector<ContactPoint<dim>> contacts =
       find_contact_candidates(*grid_, *particles_, stencils, fields, active, obstacles_, time_, h, config_.contact.gap_prediction);
   report.contact_seconds = seconds_since(tc);
+  if (equilibrium_stage_ && config_.equilibrium.stick) {
+    // `contact: stick`: the bodies are held where they touch an obstacle or a
+    // frictional face, as on the fixed base of a gravity-loading step.
+    for (const ContactPoint<dim>& cp : contacts) active.constrain(cp.point);
+    contacts.clear();
+  }
   {
     PetscInt local = static_cast<PetscInt>(contacts.size());
     MPI_Allreduce(&local, &report.contact_points, 1, MPIU_INT, MPI_SUM, comm_);
   }
   // 5. Freeze the committed particle state and 6. solve momentum, plasticity
   // and contact, F(v) = 0, by one semismooth Newton.
-  fields.last_acceleration = last_acceleration_;  // the predictor; kept for a retry after a cut-back
-  MomentumSystem<dim> system(*grid_, *particles_, stencils, fields, active, materials_, gravity_, h,
-                             config_.time.theta, std::move(contacts));
+  // The predictor; kept for a retry after a cut-back. A stage step starts
+  // from rest (zero acceleration), not from free fall over its long step.
+  fields.last_acceleration =
+      equilibrium_stage_ ? std::vector<double>(fields.velocity.size(), 0.0) : last_acceleration_;
+  MomentumSystem<dim> system(*grid_, *particles_, stencils, fields, active, materials_, gravity_, h, theta,
+                             std::move(contacts));
   if (active.global_count() > 0) {
     report.newton = newton_->solve(system);
   } else {
@@ -218,6 +229,39 @@ StepReport Simulation<dim>::advance(double h) {
   report.solve_seconds = seconds_since(t1);
   report.contact_seconds += system.contact_seconds();
   if (!report.newton.converged) return report;
+  if (equilibrium_stage_) {
+    // No motion: the particles keep their places, deformation gradients and
+    // velocities (zero); only sigma and the material state are committed.
+    const auto& v = system.end_velocity();
+    double largest = 0.0, work = 0.0;
+    for (int i : active.owned_points()) {
+      const Eigen::Map<const Vector<dim>> vi(v.data() + dim * i);
+      largest = std::max(largest, h * vi.norm());
+      work += fields.mass[i] * gravity_.dot(h * vi);
+    }
+    MPI_Allreduce(&largest, &stage_displacement_, 1, MPI_DOUBLE, MPI_MAX, comm_);
+    MPI_Allreduce(&work, &stage_gravity_work_, 1, MPI_DOUBLE, MPI_SUM, comm_);
+    // The stage's convergence: the largest stress change of the step against
+    // the largest stress. Not the displacement: a grid point whose particles
+    // all sit where its B-spline has zero gradient has no stiffness, only the
+    // vanishing inertia of the long step, and falls freely without straining
+    // anything (seen in landslide_3d_from_dem).
+    double change[2] = {0.0, 0.0}, any[2];
+    {
+      FieldView<PetscReal> start(particles_->swarm(), field::stress);
+      const auto& end = system.end_stress();
+      for (std::size_t p = 0; p < end.size(); ++p) {
+        change[0] = std::max(change[0], (end[p] - Eigen::Map<const Voigt>(start.data() + 6 * p)).norm());
+        change[1] = std::max(change[1], end[p].norm());
+      }
+    }
+    MPI_Allreduce(change, any, 2, MPI_DOUBLE, MPI_MAX, comm_);
+    stage_stress_change_ = any[1] > 0 ? any[0] / any[1] : 0.0;
+    commit_material_state(system);
+    check_finite();
+    report.converged = true;
+    return report;
+  }
   {
     // The next step's predictor: this step's grid acceleration.
     const auto& v_end = system.end_velocity();
@@ -229,8 +273,8 @@ StepReport Simulation<dim>::advance(double h) {
   }
   record_contact_forces(system.contacts(), system.contact_impulses(), system.contact_maps(), h);
   if (grid_output()) record_grid_points(fields, system.end_velocity(), &system, h);
-  report.transfer_seconds += complete_step(system, stencils, fields, h, config_.time.theta);
-  account_energy(system.step_energy(config_.time.theta, config_.time.theta, compliance_, system.contacts(),
+  report.transfer_seconds += complete_step(system, stencils, fields, h, theta);
+  account_energy(system.step_energy(theta, theta, compliance_, system.contacts(),
                                    system.contact_impulses()),
                  kinetic_start);
   report.converged = true;
@@ -246,7 +290,17 @@ double Simulation<dim>::complete_step(const MomentumSystem<dim>& system, const s
   const auto t2 = std::chrono::steady_clock::now();
   grid_to_particles(*particles_, stencils, system.end_velocity(), system.start_velocity(), fields.velocity, h,
                     theta, config_.transfer);
-  // 8. Commit the material state: sigma^{n+1} at the converged velocities.
+  commit_material_state(system);
+  check_finite();
+  keep_particles_inside();
+  particles_->migrate(*grid_);
+  time_ += h;
+  return seconds_since(t2);
+}
+
+// 8. Commit the material state: sigma^{n+1} at the converged velocities.
+template <int dim>
+void Simulation<dim>::commit_material_state(const MomentumSystem<dim>& system) {
   {
     DM sw = particles_->swarm();
     FieldView<PetscReal> s(sw, field::stress), state(sw, field::material_state),
@@ -263,11 +317,6 @@ double Simulation<dim>::complete_step(const MomentumSystem<dim>& system, const s
       plastic[p] += std::sqrt(2.0 / 3.0 * norm2);
     }
   }
-  check_finite();
-  keep_particles_inside();
-  particles_->migrate(*grid_);
-  time_ += h;
-  return seconds_since(t2);
 }
 
 template <int dim>
@@ -501,6 +550,9 @@ RunSummary Simulation<dim>::run_steps(std::ostream* progress, const ProgressOpti
     }
     if (!note.empty()) log.message("  " + note);
   } else {
+    // The equilibrium stage runs before anything of the run is written, so
+    // that t = 0 is its state (a restart starts after it).
+    if (config_.equilibrium.enabled) equilibrate(summary, progress);
     if (obstacle_output) forces = std::make_unique<ObstacleForceTable>(comm_, forces_path, force_columns());
     if (vtk) {
       if (std::isnan(initial_energy_)) {

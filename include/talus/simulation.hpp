@@ -67,6 +67,12 @@ struct RunSummary {
   };
   std::vector<PeakLoad> peak_window_forces;
   double force_window = 0;  // s
+  // The equilibrium stage before the run (docs/equilibrium.md), if any: its
+  // steps and Newton iterations, the largest stress change of its last step
+  // relative to the largest stress, and the work of gravity over the stage
+  // (J, J/m in 2D).
+  long equilibrium_steps = 0, equilibrium_newton_iterations = 0;
+  double equilibrium_last_stress_change = 0, equilibrium_gravity_work = 0;
 };
 
 template <int dim>
@@ -171,6 +177,13 @@ class Simulation {
   double complete_step(const MomentumSystem<dim>& system, const std::vector<Stencil<dim>>& stencils,
                        const GridFields<dim>& fields, double h, double theta);
   void keep_particles_inside();
+  // The equilibrium stage (src/simulation_equilibrium.cpp): quasi-static
+  // steps in the initial configuration until the bodies carry their weight;
+  // fills summary's equilibrium_* fields. Throws SimulationError if a stage
+  // step does not converge.
+  void equilibrate(RunSummary& summary, std::ostream* progress);
+  // 8. Commit sigma^{n+1} and the material state of `system` to the particles.
+  void commit_material_state(const MomentumSystem<dim>& system);
   // `time.step: auto`: min(gravity_number sqrt(cell / |g|), courant cell /
   // v_max) with v_max the fastest particle or obstacle now (collective); the
   // first step when nothing moves and there is no gravity.
@@ -212,6 +225,14 @@ class Simulation {
   // step's acceleration at this rank's owned active points (ghosted layout,
   // NaN elsewhere; empty before the first step and after a re-partition).
   std::vector<double> last_acceleration_;
+  // True during the equilibrium stage: advance() then takes theta = 1, starts
+  // Newton from rest, and commits only the stresses (no motion, no energy).
+  bool equilibrium_stage_ = false;
+  // The grid displacement h v of the last stage step: largest |u| (m) and the
+  // work of gravity sum m_i g . u_i (collective).
+  double stage_displacement_ = 0.0, stage_gravity_work_ = 0.0;
+  // ... and its largest stress change over the largest stress (collective).
+  double stage_stress_change_ = 0.0;
   // The energy balance (docs/energy.md): K0 + G0 + E0 (NaN until the first
   // step or a restart sets it), the terms summed since t = 0, and the
   // particles' energies after the last step.

@@ -114,6 +114,10 @@ void print_summary(const talus::CaseConfig& config, const talus::RunSummary& s, 
               << ", \"transfer_seconds\": " << s.transfer_seconds << ", \"solve_seconds\": " << s.solve_seconds
               << ", \"contact_seconds\": " << s.contact_seconds << ", \"contact_points\": " << s.contact_points
               << ", \"max_unbalance\": " << s.max_unbalance << ", \"energy_balance_error\": " << s.energy_balance_error << ", \"structure_builds\": " << s.structure_builds
+              << ", \"equilibrium_steps\": " << s.equilibrium_steps
+              << ", \"equilibrium_newton_iterations\": " << s.equilibrium_newton_iterations
+              << ", \"equilibrium_last_stress_change\": " << s.equilibrium_last_stress_change
+              << ", \"equilibrium_gravity_work\": " << s.equilibrium_gravity_work
               << ", \"direct_fallbacks\": " << s.direct_fallbacks << ", \"factorizations\": " << s.factorizations
               << ", \"ranks\": " << s.final_load.ranks << ", \"rebalances\": " << s.rebalances
               << ", \"worst_imbalance\": " << s.worst_imbalance << ", \"final_min_rank_particles\": "

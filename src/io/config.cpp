@@ -500,6 +500,30 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
     k.finish();
   }
 
+  if (root.has("equilibrium")) {
+    // The equilibrium stage (docs/equilibrium.md).
+    YamlSection e = root.section("equilibrium");
+    EquilibriumConfig& q = c.equilibrium;
+    q.enabled = true;
+    q.stick = e.choice("contact", {"case", "stick"}, "case") == "stick";
+    q.max_steps = e.integer("max_steps", q.max_steps);
+    if (q.max_steps < 1 || q.max_steps > 1000) e.fail_value("max_steps", "must be in [1, 1000]");
+    q.tolerance = e.real("tolerance", q.tolerance);
+    if (!(q.tolerance >= 1e-12 && q.tolerance <= 1e-1)) e.fail_value("tolerance", "must be in [1e-12, 0.1]");
+    // The inertia left in a stage step relative to the stiffness is about
+    // (T / 2 pi step)^2 for a body's slowest mode of period T <~ 4 L / c_p:
+    // 10 crossings of the grid leave ~1e-3 in the first step, and each
+    // further step removes the same factor of what is left.
+    double slowest = std::numeric_limits<double>::infinity();
+    for (const MaterialConfig& m : c.materials)
+      slowest = std::min(slowest, std::sqrt(m.law->elastic_stiffness()(0, 0) / m.law->density()));
+    double extent = 0.0;
+    for (int a = 0; a < c.dim; ++a) extent = std::max(extent, c.grid.upper[a] - c.grid.lower[a]);
+    q.step = e.has("step") ? e.positive("step", e.real("step")) : 10.0 * extent / slowest;
+    if (!std::isfinite(q.step)) e.fail_value("step", "must be finite (give equilibrium.step in seconds)");
+    e.finish();
+  }
+
   if (root.has("transfer")) {
     YamlSection t = root.section("transfer");
     c.transfer.scheme = t.choice("scheme", {"apic", "flip"}, "apic") == "apic" ? TransferScheme::apic

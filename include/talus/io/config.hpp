@@ -181,6 +181,17 @@ struct ParallelConfig {
 // contents), "default" where the section is absent.
 using CaseFingerprint = std::vector<std::pair<std::string, std::string>>;
 
+// An equilibrium stage before the run (docs/equilibrium.md): gravity loading
+// solved quasi-statically in the initial configuration, so that the run
+// starts from stresses that carry the bodies' weight.
+struct EquilibriumConfig {
+  bool enabled = false;
+  bool stick = false;    // contact: case (the case's Coulomb contact) | stick (points touching obstacles held)
+  int max_steps = 10;
+  double tolerance = 1e-6;  // the stage ends when a step changes no stress by more than tolerance x the largest
+  double step = 0.0;        // 0: 10 x the largest grid extent / the slowest P-wave speed
+};
+
 struct CaseConfig {
   std::string source_file;
   CaseFingerprint fingerprint;
@@ -200,6 +211,7 @@ struct CaseConfig {
   TransferConfig transfer;
   SolverConfig solver;
   ParallelConfig parallel;
+  EquilibriumConfig equilibrium;
 };
 
 // Reads and validates; throws InputError with file, line, key and value.

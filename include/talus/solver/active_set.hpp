@@ -33,6 +33,11 @@ class ActiveSet {
   PetscInt compact_index(int local_point) const { return compact_[local_point]; }
   const std::vector<int>& owned_points() const { return owned_points_; }  // ghosted index, compact order
   bool constrained(int local_point, int component) const { return constrained_[dim * local_point + component]; }
+  // Holds every component of a point (the equilibrium stage's `contact:
+  // stick`, docs/equilibrium.md): its equation becomes m_i v_i = 0.
+  void constrain(int local_point) {
+    for (int c = 0; c < dim; ++c) constrained_[dim * local_point + c] = 1;
+  }
 
   // A new unknown vector (block size dim), compact layout.
   Vec create_vector() const;
