@@ -39,6 +39,15 @@ std::string column(const std::string& grid = "grid: {lower: [0, 0], upper: [1.0,
          "boundaries: {y_min: fixed}\n";
 }
 
+// The column with its body's defaults written out.
+std::string with_body_defaults(std::string text) {
+  const std::string body = "box: {lower: [0, 0], upper: [0.3, 0.4]}}";
+  text.replace(text.find(body), body.size(),
+               "box: {lower: [0, 0], upper: [0.3, 0.4]}, particles_per_cell: 2, initial_stress: none,"
+               " velocity: [0, 0.0]}");
+  return text;
+}
+
 // The checkpoint of 4 steps of the column, written once.
 const std::string& written_checkpoint() {
   static const std::string path = [] {
@@ -190,6 +199,11 @@ TEST_CASE("a restart with another case is refused, naming what differs", "[check
                          "materials: [{name: sand, model: drucker_prager, density: 2000, youngs_modulus: 1.0e6,"
                          " poisson_ratio: 0.3, friction_angle: 30, cohesion: 10}]\n"));
   }
+  SECTION("a body's default changed (particles_per_cell 2 -> 3)") {
+    std::string text = with_body_defaults(column());
+    text.replace(text.find("particles_per_cell: 2"), 21, "particles_per_cell: 3");
+    restart_fails(path, refused + "`bodies` differs", text);
+  }
   SECTION("another gravity") {
     restart_fails(path, refused + "`gravity` differs",
                   column("grid: {lower: [0, 0], upper: [1.0, 0.6], cell_size: 0.05}\n",
@@ -201,14 +215,16 @@ TEST_CASE("a restart with another case is refused, naming what differs", "[check
     // Keys reordered, block style, 2e3 for 2000, defaults written out
     // (shape_function, transfer, contact) or left out (the material's
     // dilatancy_angle and cohesion), the material's other defaults written
-    // out (hardening_modulus, mohr_coulomb_match): the same fingerprint.
+    // out (hardening_modulus, mohr_coulomb_match), the body's defaults
+    // written out (particles_per_cell, initial_stress, velocity): the same
+    // fingerprint.
     const std::string same = column(
         "grid:\n  cell_size: 5.0e-2\n  upper: [1, 0.6]\n  lower: [0.0, 0.0]\n  shape_function: quadratic_bspline\n"
         "transfer: {scheme: apic}\ncontact: {gap_prediction: 0.5}\n",
         "materials:\n  - {model: drucker_prager, name: sand, density: 2e3, youngs_modulus: 1000000,"
         " poisson_ratio: 0.3, friction_angle: 30.0, hardening_modulus: 0, mohr_coulomb_match: plane_strain}\n",
         "gravity: [0, -9.81]\n", "time: {end: 0.03125, step: 0.001953125}\n");
-    Simulation<2> sim(testing::case_from_yaml(same), PETSC_COMM_SELF);
+    Simulation<2> sim(testing::case_from_yaml(with_body_defaults(same)), PETSC_COMM_SELF);
     REQUIRE_NOTHROW(sim.restart(path));
     const RunSummary s = sim.run(nullptr);
     CHECK(sim.time() == Approx(0.03125));

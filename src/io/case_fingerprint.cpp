@@ -68,6 +68,40 @@ std::string canonical(const YAML::Node& node, const std::filesystem::path& base,
   }
 }
 
+// The canonical text of a list of bodies or obstacles, each without the
+// keys whose value is the default the parser gives (`defaults`: key and the
+// canonical text of its default; a zero vector stands for any dimension), so
+// that writing a default out (particles_per_cell: 2, restitution: 0,
+// velocity: [0, 0]) is no change (issue 14).
+std::string canonical_list(const YAML::Node& list, const std::filesystem::path& base, const std::string& key,
+                           const std::map<std::string, std::string>& defaults) {
+  if (!list || !list.IsSequence()) return canonical(list, base, key);
+  std::string text = "[";
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const YAML::Node item = list[i];
+    std::string entry;
+    if (item.IsMap()) {
+      std::map<std::string, std::string> entries;
+      for (auto it = item.begin(); it != item.end(); ++it) {
+        const std::string name = it->first.Scalar();
+        const std::string value = canonical(it->second, base, name);
+        const auto d = defaults.find(name);
+        const bool zero_vector = d != defaults.end() && d->second == "zeros" && it->second.IsSequence() &&
+                                 value == (it->second.size() == 3 ? "[0, 0, 0]" : "[0, 0]");
+        if (d != defaults.end() && (value == d->second || zero_vector)) continue;
+        entries[name] = value;
+      }
+      entry = "{";
+      for (const auto& [k, v] : entries) entry += (entry.size() > 1 ? ", " : "") + k + ": " + v;
+      entry += "}";
+    } else {
+      entry = canonical(item, base, key);
+    }
+    text += (i ? ", " : "") + entry;
+  }
+  return text + "]";
+}
+
 }  // namespace
 
 CaseFingerprint case_fingerprint(const YAML::Node& doc, const CaseConfig& c) {
@@ -75,7 +109,8 @@ CaseFingerprint case_fingerprint(const YAML::Node& doc, const CaseConfig& c) {
   // The sections with few keys and the materials from their parsed values,
   // defaults included, so that writing a default out (shape_function:
   // quadratic_bspline, transfer: {scheme: apic}, cohesion: 0) is not a
-  // change; bodies and obstacles from their canonical YAML text.
+  // change; bodies and obstacles from their canonical YAML text without the
+  // keys that hold their default.
   const char* const shapes[2] = {"quadratic_bspline", "linear"};
   std::string grid = "lower: " + list_text(c.grid.lower) + ", upper: " + list_text(c.grid.upper) +
                      ", cell_size: " + number_text(c.grid.cell_size) +
@@ -96,9 +131,13 @@ CaseFingerprint case_fingerprint(const YAML::Node& doc, const CaseConfig& c) {
   for (const MaterialConfig& m : c.materials)
     materials += (materials.empty() ? "" : "; ") + ("name: " + m.name + ", " + m.law->parameters());
   f.emplace_back("materials", materials);
-  f.emplace_back("bodies", canonical(doc["bodies"], base, "bodies"));
+  f.emplace_back("bodies", canonical_list(doc["bodies"], base, "bodies",
+                                          {{"particles_per_cell", "2"}, {"initial_stress", "'none'"},
+                                           {"velocity", "zeros"}}));
   f.emplace_back("boundaries", boundaries);
-  f.emplace_back("obstacles", doc["obstacles"] ? canonical(doc["obstacles"], base, "obstacles") : "none");
+  f.emplace_back("obstacles", doc["obstacles"] ? canonical_list(doc["obstacles"], base, "obstacles",
+                                                                {{"restitution", "0"}, {"velocity", "zeros"}})
+                                              : "none");
   f.emplace_back("contact", "gap_prediction: " + number_text(c.contact.gap_prediction));
   f.emplace_back("transfer", std::string("scheme: ") + (c.transfer.scheme == TransferScheme::apic ? "apic" : "flip") +
                                  ", flip_blend: " + number_text(c.transfer.flip_blend));
