@@ -18,6 +18,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <optional>
 #include <regex>
 
 #include "talus/simulation.hpp"
@@ -140,4 +141,40 @@ TEST_CASE("a checkpoint that does not fit leaves the previous one intact and res
   third.restart(good);
   CHECK_NOTHROW(third.run(nullptr));
   CHECK(third.time() == Approx(0.1));
+}
+
+TEST_CASE("a checkpoint that fails on one rank only stops every rank, without a hang, the previous one intact",
+          "[output][checkpoint][mpi]") {
+  // A full disk seen by one rank in the middle of the collective HDF5 write
+  // (each rank in turn): every rank must leave the write and stop with the
+  // same OutputError (a rank that kept waiting in a collective call would
+  // hang until ctest's timeout), and the previous checkpoint stays usable.
+  const int size = testing::comm_size(PETSC_COMM_WORLD);
+  int rank = 0;
+  MPI_Comm_rank(PETSC_COMM_WORLD, &rank);
+  for (int failing = 0; failing < size; ++failing) {
+    const std::string dir = "full_disk_one_rank_" + std::to_string(size) + "_" + std::to_string(failing);
+    fresh_directory(dir);
+    std::string good;
+    {
+      Simulation<2> first(testing::case_from_yaml(column(dir, 0.05, false)), PETSC_COMM_WORLD);
+      good = first.run(nullptr).last_checkpoint;
+    }
+    MPI_Barrier(PETSC_COMM_WORLD);
+    const std::string before = contents(good);
+    {
+      Simulation<2> second(testing::case_from_yaml(column(dir, 0.1, false)), PETSC_COMM_WORLD);
+      second.restart(good);
+      std::optional<FileSizeLimit> limit;
+      if (rank == failing) limit.emplace(16 * 1024);
+      CHECK_THROWS_WITH(second.run(nullptr), Catch::Contains("writing a checkpoint at t = 0.1"));
+    }
+    CHECK(leftovers(dir).empty());
+    CHECK(contents(good) == before);
+    MPI_Barrier(PETSC_COMM_WORLD);
+    Simulation<2> third(testing::case_from_yaml(column(dir, 0.1, false)), PETSC_COMM_WORLD);
+    third.restart(good);
+    CHECK_NOTHROW(third.run(nullptr));
+    CHECK(third.time() == Approx(0.1));
+  }
 }

@@ -61,6 +61,19 @@ void check(herr_t status, const std::string& what) {
   if (status < 0) throw std::runtime_error("HDF5: " + what + " failed");
 }
 
+// The same check on every rank of `comm` at once: a collective HDF5 call
+// that failed on one rank only (its file-size limit or its share of a full
+// disk) must make every rank leave the write at the same call, so that all
+// close their handles (collective too) in the same order; a rank that threw
+// alone would leave the others waiting in the next collective call forever.
+void check_on_all(herr_t status, const std::string& what, MPI_Comm comm) {
+  const int failed_here = status < 0;
+  int failed_anywhere = 0;
+  MPI_Allreduce(&failed_here, &failed_anywhere, 1, MPI_INT, MPI_MAX, comm);
+  if (failed_anywhere)
+    throw std::runtime_error("HDF5: " + what + (failed_here ? " failed" : " failed on another rank"));
+}
+
 // A closing guard for HDF5 handles.
 struct Handle {
   hid_t id;
@@ -270,7 +283,7 @@ void write_checkpoint(const std::string& path, const Particles<dim>& particles, 
       const herr_t status = H5Dwrite(dset.id, memory_type(f.kind), memspace.id, filespace.id, dxpl.id,
                                      local > 0 ? data : &dummy);
       TALUS_PETSC(DMSwarmRestoreField(sw, f.swarm_name, &block, nullptr, &data));
-      check(status, std::string("writing ") + f.file_name);
+      check_on_all(status, std::string("writing ") + f.file_name, comm);
       describe(dset.id, describe_field<dim>(f.file_name));
     }
     {
@@ -299,8 +312,8 @@ void write_checkpoint(const std::string& path, const Particles<dim>& particles, 
         // the empty dataset is all there is; HDF5 refuses a write to it.
         if (all == 0) return;
         const double dummy = 0.0;
-        check(H5Dwrite(dset.id, type, memspace.id, filespace.id, dxpl.id, rows > 0 ? data : &dummy),
-              std::string("writing ") + name);
+        check_on_all(H5Dwrite(dset.id, type, memspace.id, filespace.id, dxpl.id, rows > 0 ? data : &dummy),
+                     std::string("writing ") + name, comm);
       };
       write_rows("accelerated_points", H5T_NATIVE_LLONG, 1, state.accelerated_points.data());
       write_rows("point_acceleration", H5T_NATIVE_DOUBLE, dim, state.point_acceleration.data());
@@ -338,9 +351,9 @@ void write_checkpoint(const std::string& path, const Particles<dim>& particles, 
             H5Sselect_none(memspace.id);
           }
           const double dummy = 0.0;
-          check(H5Dwrite(dset.id, H5T_NATIVE_DOUBLE, memspace.id, filespace.id, dxpl.id,
-                         rank == 0 ? data.data() : &dummy),
-                std::string("writing obstacles/") + name);
+          check_on_all(H5Dwrite(dset.id, H5T_NATIVE_DOUBLE, memspace.id, filespace.id, dxpl.id,
+                                rank == 0 ? data.data() : &dummy),
+                       std::string("writing obstacles/") + name, comm);
         }
         describe(dset.id, d);
       };
@@ -406,7 +419,7 @@ void write_checkpoint(const std::string& path, const Particles<dim>& particles, 
       write_text_attribute(run.id, ("case_" + section).c_str(), text);
     // The data reach the disk here at the latest: a full disk fails here, not
     // silently when the handles close.
-    check(H5Fflush(file.id, H5F_SCOPE_GLOBAL), "flushing " + tmp);
+    check_on_all(H5Fflush(file.id, H5F_SCOPE_GLOBAL), "flushing " + tmp, comm);
   } catch (const std::exception& e) {
     failed = 1;
     message = e.what();
