@@ -303,7 +303,7 @@ TEST_CASE("obstacles, frictional faces and contact options parse into the expect
                                    "  - name: wall\n"
                                    "    type: box\n"
                                    "    lower: [1.75, 0]\n"
-                                   "    upper: [1.9, 0.8]\n"
+                                   "    upper: [1.95, 0.8]\n"
                                    "    friction: 0.5\n"
                                    "    restitution: 0.2\n"
                                    "    velocity: [-0.1, 0]\n"
@@ -334,7 +334,7 @@ TEST_CASE("obstacles, frictional faces and contact options parse into the expect
   const ObstacleConfig& wall = c.obstacles[1];
   CHECK(wall.shape == ObstacleShape::box);
   CHECK(wall.lower == std::vector<double>{1.75, 0.0});
-  CHECK(wall.upper == std::vector<double>{1.9, 0.8});
+  CHECK(wall.upper == std::vector<double>{1.95, 0.8});
   CHECK(wall.friction == 0.5);
   CHECK(wall.restitution == 0.2);
   CHECK(wall.velocity == std::vector<double>{-0.1, 0.0});
@@ -418,6 +418,10 @@ TEST_CASE("contact keys: malformed values and terrain files name the case line a
        "obstacles[0].lower: the whole grid box lies inside the obstacle"},
       {"", with_obstacle("{name: f, type: half_plane, point: [0, -0.5], normal: [0, 1], friction: 0.5}"),
        "obstacles[0].point: the half-plane lies outside the grid box (every grid corner is on its free side)"},
+      // Thinner than two cells (0.1 m): its far face can let material through.
+      {"", with_obstacle("{name: w, type: box, lower: [1.5, 0], upper: [1.65, 1], friction: 0.5}"),
+       "obstacles[0].upper = [1.65, 1]: gives a box 0.15 m thick along x, less than two cells (2 x grid.cell_size = "
+       "0.2 m)"},
       {"", with_obstacle("{name: 'a wall', type: box, lower: [1.5, 0], upper: [2, 1], friction: 0.5}"),
        "obstacles[0].name = a wall: must be a non-empty name of letters"},
       {"", with_obstacle("{name: w, type: box, lower: [1.5, 0], upper: [2, 1], friction: 0.5, velocity: [1]}"),
