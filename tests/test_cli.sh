@@ -789,6 +789,21 @@ assert abs(field(last, "KE") - kinetic) <= 1e-5 * kinetic, (last, kinetic)
 print(f"cli ok: outputs at {times}, steps {h.round(6).tolist()[:4]}..., progress lines at steps {steps}; "
       f"v_max {speed:.6g} m/s, front {front:.6g} m, KE {kinetic:.6g} J/m")
 PY
+# No sliver step before an output: with h = 0.012 s and outputs every
+# 0.025 s, a second full step would leave 0.001 s (under a quarter step), so
+# the rest after the first step is split in two: 0.012, 0.0065, 0.0065 per
+# interval (without the split: 0.012, 0.012, 0.001).
+sed -e "s#directory: .*#directory: $work/land_split#" -e 's/end: 0.5/end: 0.05/' -e 's/step: 0.005/step: 0.012/' \
+  -e 's/interval: 0.05/interval: 0.025/' "$repo/inputs/elastic_column.yaml" > land_split.yaml
+"$talus" run land_split.yaml --quiet > land_split.log 2>&1 || { echo "FAIL: land_split"; cat land_split.log; exit 1; }
+/usr/bin/python3 - "$work/land_split" <<'PY'
+import csv, sys
+import numpy as np
+t = np.array([float(r[0]) for r in list(csv.reader(open(sys.argv[1] + "/energy.csv")))[1:]])
+h = np.diff(t)
+assert len(h) == 6 and np.abs(h - np.tile([0.012, 0.0065, 0.0065], 2)).max() < 1e-12, h
+print(f"cli ok: no sliver step, steps {h.round(6).tolist()}")
+PY
 # The explicit integrator lands the same way: the reference column's step
 # 1.4925e-4 s (time.cfl x its limit) and outputs every 1e-3 s to 3e-3 s:
 # 1e-3 / 1.4925e-4 = 6.7, so 7 steps per output, 21 in all.
