@@ -31,9 +31,13 @@ std::size_t edit_distance(const std::string& a, const std::string& b) {
 
 std::string scalar_text(const YAML::Node& n) {
   if (n.IsScalar()) return n.Scalar();
-  std::ostringstream os;
-  os << YAML::Dump(n);
-  std::string s = os.str();
+  // Lists and maps on one line in flow style, however the file wrote them
+  // (a block list would read "- 2.85 - 1.2 - 0.5").
+  YAML::Emitter out;
+  out.SetSeqFormat(YAML::Flow);
+  out.SetMapFormat(YAML::Flow);
+  out << n;
+  std::string s = out.c_str();
   std::replace(s.begin(), s.end(), '\n', ' ');
   return s;
 }
