@@ -94,21 +94,8 @@ if ! command -v apt-get >/dev/null 2>&1; then
   exit 1
 fi
 
-"${as_root[@]}" apt-get update
-simulation=$(apt-get install -s --no-install-recommends "${packages[@]}" 2>&1) || {
-  echo "$PROG: error: apt-get cannot install the packages:" >&2
-  echo "$simulation" | grep -E '^(E:|W:| )' >&2 || echo "$simulation" >&2
-  exit 1
-}
-removals=$(echo "$simulation" | sed -n 's/^Remv \([^ ]*\).*/\1/p')
-if [[ -n "$removals" ]]; then
-  echo "$PROG: error: installing would remove: $(echo $removals). Nothing changed." >&2
-  echo "  (apt-get install -s --no-install-recommends ${missing[*]} shows why; remove or" >&2
-  echo "  keep those packages yourself, then run this script again.)" >&2
-  exit 1
-fi
-"${as_root[@]}" env DEBIAN_FRONTEND=noninteractive \
-  apt-get install -y --no-install-recommends "${packages[@]}"
+source "$(dirname "$0")/apt_install_safely.sh"
+apt_install_safely "${packages[@]}"
 
 still=()
 for p in "${packages[@]}"; do installed "$p" || still+=("$p"); done

@@ -126,19 +126,8 @@ for p in "${apt_packages[@]}"; do installed "$p" || missing+=("$p"); done
 
 if [[ ${#missing[@]} -gt 0 ]]; then
   echo "$PROG: installing ${missing[*]} (--no-install-recommends: without python3-paraview)"
-  "${as_root[@]}" apt-get update
-  simulation=$(apt-get install -s --no-install-recommends "${missing[@]}" 2>&1) || {
-    echo "$PROG: error: apt-get cannot install ${missing[*]}:" >&2
-    echo "$simulation" | grep -E '^(E:|W:| )' >&2 || echo "$simulation" >&2
-    exit 1
-  }
-  removals=$(echo "$simulation" | sed -n 's/^Remv \([^ ]*\).*/\1/p')
-  if [[ -n "$removals" ]]; then
-    echo "$PROG: error: installing ${missing[*]} would remove: $(echo $removals). Nothing changed." >&2
-    echo "  (apt-get install -s --no-install-recommends ${missing[*]} shows why.)" >&2
-    exit 1
-  fi
-  "${as_root[@]}" env DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends "${missing[@]}"
+  source "$(dirname "$0")/apt_install_safely.sh"
+  apt_install_safely "${missing[@]}"
 fi
 
 version=$(dpkg-query -W -f='${Version}' paraview)

@@ -71,6 +71,28 @@ void fresh_directory(const std::string& directory) {
   MPI_Barrier(PETSC_COMM_WORLD);
 }
 
+// The column run to t = 0.05 s in a fresh `directory`: its last checkpoint.
+std::string checkpoint_at_0_05(const std::string& directory) {
+  fresh_directory(directory);
+  std::string path;
+  {
+    Simulation<2> first(testing::case_from_yaml(column(directory, 0.05, false)), PETSC_COMM_WORLD);
+    path = first.run(nullptr).last_checkpoint;
+  }
+  REQUIRE(fs::exists(path));
+  MPI_Barrier(PETSC_COMM_WORLD);
+  return path;
+}
+
+// A restart from `checkpoint` runs the column to t = 0.1 s.
+void check_restart_runs_to_0_1(const std::string& directory, const std::string& checkpoint) {
+  MPI_Barrier(PETSC_COMM_WORLD);
+  Simulation<2> third(testing::case_from_yaml(column(directory, 0.1, false)), PETSC_COMM_WORLD);
+  third.restart(checkpoint);
+  CHECK_NOTHROW(third.run(nullptr));
+  CHECK(third.time() == Approx(0.1));
+}
+
 std::vector<std::string> leftovers(const std::string& directory) {
   MPI_Barrier(PETSC_COMM_WORLD);
   std::vector<std::string> found;
@@ -115,14 +137,7 @@ TEST_CASE("a full disk at an output stops the run and keeps the earlier outputs"
 
 TEST_CASE("a checkpoint that does not fit leaves the previous one intact and restartable", "[output][checkpoint][mpi]") {
   const std::string dir = "full_disk_checkpoint_" + std::to_string(testing::comm_size(PETSC_COMM_WORLD));
-  fresh_directory(dir);
-  std::string good;
-  {
-    Simulation<2> first(testing::case_from_yaml(column(dir, 0.05, false)), PETSC_COMM_WORLD);
-    good = first.run(nullptr).last_checkpoint;
-  }
-  REQUIRE(fs::exists(good));
-  MPI_Barrier(PETSC_COMM_WORLD);
+  const std::string good = checkpoint_at_0_05(dir);
   const std::string before = contents(good);
   {
     // A checkpoint of the 800 particles is about 190 kB.
@@ -136,11 +151,7 @@ TEST_CASE("a checkpoint that does not fit leaves the previous one intact and res
   for (const auto& e : fs::directory_iterator(dir)) checkpoints.push_back(e.path().string());
   CHECK(checkpoints == std::vector<std::string>{good});
   CHECK(contents(good) == before);
-  MPI_Barrier(PETSC_COMM_WORLD);
-  Simulation<2> third(testing::case_from_yaml(column(dir, 0.1, false)), PETSC_COMM_WORLD);
-  third.restart(good);
-  CHECK_NOTHROW(third.run(nullptr));
-  CHECK(third.time() == Approx(0.1));
+  check_restart_runs_to_0_1(dir, good);
 }
 
 TEST_CASE("a checkpoint that fails on one rank only stops every rank, without a hang, the previous one intact",
@@ -154,13 +165,7 @@ TEST_CASE("a checkpoint that fails on one rank only stops every rank, without a 
   MPI_Comm_rank(PETSC_COMM_WORLD, &rank);
   for (int failing = 0; failing < size; ++failing) {
     const std::string dir = "full_disk_one_rank_" + std::to_string(size) + "_" + std::to_string(failing);
-    fresh_directory(dir);
-    std::string good;
-    {
-      Simulation<2> first(testing::case_from_yaml(column(dir, 0.05, false)), PETSC_COMM_WORLD);
-      good = first.run(nullptr).last_checkpoint;
-    }
-    MPI_Barrier(PETSC_COMM_WORLD);
+    const std::string good = checkpoint_at_0_05(dir);
     const std::string before = contents(good);
     {
       Simulation<2> second(testing::case_from_yaml(column(dir, 0.1, false)), PETSC_COMM_WORLD);
@@ -171,10 +176,6 @@ TEST_CASE("a checkpoint that fails on one rank only stops every rank, without a 
     }
     CHECK(leftovers(dir).empty());
     CHECK(contents(good) == before);
-    MPI_Barrier(PETSC_COMM_WORLD);
-    Simulation<2> third(testing::case_from_yaml(column(dir, 0.1, false)), PETSC_COMM_WORLD);
-    third.restart(good);
-    CHECK_NOTHROW(third.run(nullptr));
-    CHECK(third.time() == Approx(0.1));
+    check_restart_runs_to_0_1(dir, good);
   }
 }

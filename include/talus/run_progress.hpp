@@ -2,6 +2,7 @@
 // What a run prints while it runs (docs/command_line.md#the-progress-line):
 // the progress line, and the messages (cut-backs, warnings, checkpoints)
 // on lines of their own between its updates.
+#include <chrono>
 #include <deque>
 #include <iosfwd>
 #include <limits>
@@ -44,6 +45,10 @@ struct ProgressFigures {
 std::string progress_text(const ProgressFigures& f, bool terminal);
 // hh:mm:ss of a number of seconds; "--:--:--" for NaN.
 std::string clock_text(double seconds);
+// Wall seconds since t0.
+inline double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
 
 // Time to time.end from the simulated-time rate over the last `window`
 // seconds of wall time, not from the start of the run: the first step pays

@@ -65,10 +65,7 @@ double first_auto_step(const CaseConfig& c) {
   }
   for (const ObstacleConfig& o : c.obstacles)
     if (!o.velocity.empty()) speed = std::max(speed, norm(o.velocity.data(), c.dim));
-  const double inf = std::numeric_limits<double>::infinity();
-  const double by_gravity = g > 0 ? c.time.gravity_number * std::sqrt(c.grid.cell_size / g) : inf;
-  const double by_speed = speed > 0 ? c.time.courant * c.grid.cell_size / speed : inf;
-  const double h = std::min(by_gravity, by_speed);
+  const double h = automatic_step(c.time, c.grid.cell_size, g, speed);
   return std::isfinite(h) ? std::min(h, c.time.end) : h;
 }
 

@@ -1,7 +1,9 @@
 #pragma once
 // The case file, parsed and validated into typed structs (docs/case_file.md).
+#include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <string>
 #include <utility>
@@ -75,6 +77,16 @@ struct TimeConfig {
 inline double explicit_stable_step(ShapeKind shape, double cell, double speed, int dim) {
   const double symbol = shape == ShapeKind::linear ? 4.0 : 3.0;
   return 2.0 * cell / (speed * std::sqrt(dim * symbol));
+}
+
+// The rule of `time.step: auto` (docs/solver.md#choosing-the-step):
+// min(gravity_number sqrt(cell / |g|), courant cell / speed), each term only
+// where |g| or speed is positive; infinite when neither is.
+inline double automatic_step(const TimeConfig& time, double cell, double gravity, double speed) {
+  const double inf = std::numeric_limits<double>::infinity();
+  const double by_gravity = gravity > 0 ? time.gravity_number * std::sqrt(cell / gravity) : inf;
+  const double by_speed = speed > 0 ? time.courant * cell / speed : inf;
+  return std::min(by_gravity, by_speed);
 }
 
 struct OutputConfig {
