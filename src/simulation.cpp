@@ -43,6 +43,26 @@ std::string unused_solver_options() {
 }
 
 template <int dim>
+void check_solver_options(const CaseConfig& config, MPI_Comm comm) {
+  const std::vector<std::string> unread =
+      NewtonSolver<dim>::options_read_by_no_configuration(comm, config.solver.direct_solver_limit);
+  if (unread.empty()) return;
+  std::string list;
+  for (const std::string& name : unread) {
+    list += (list.empty() ? "-" : ", -") + name;
+    // Named where the case file gives it (the command line would win, under the same name).
+    const auto where = config.solver.petsc_option_where.find(name.substr(6));
+    if (where != config.solver.petsc_option_where.end()) list += " (" + where->second + ")";
+  }
+  throw InputError((unread.size() == 1 ? "PETSc option " : "PETSc options ") + list +
+                   ": read by no solver configuration of talus (misspelled? docs/solver.md lists the options; "
+                   "-talus_ is the prefix of every solver option)");
+}
+
+template void check_solver_options<2>(const CaseConfig&, MPI_Comm);
+template void check_solver_options<3>(const CaseConfig&, MPI_Comm);
+
+template <int dim>
 Simulation<dim>::Simulation(const CaseConfig& config, MPI_Comm comm) : config_(config), comm_(comm) {
   if (config.dim != dim) throw InputError(config.source_file + ": the case is " + std::to_string(config.dim) + "D");
   Vector<dim> lo, hi;
@@ -89,6 +109,7 @@ Simulation<dim>::Simulation(const CaseConfig& config, MPI_Comm comm) : config_(c
   MPI_Allreduce(&local_max, &max_mass, 1, MPI_DOUBLE, MPI_MAX, comm);
   mass_threshold_ = config.solver.active_mass_ratio * max_mass;
   apply_case_petsc_options(config);
+  check_solver_options<dim>(config, comm);
   newton_ = std::make_unique<NewtonSolver<dim>>(comm, config.solver.direct_solver_limit,
                                                 config.solver.balance_tolerance);
   // Seeded on PETSc's even split of the box; now follow the particles.

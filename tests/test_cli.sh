@@ -129,12 +129,29 @@ refused "-talus_ksp_type nonsense" "PETSc option -talus_ksp_type nonsense: not a
 refused "-talus_snes_rtol nan" "PETSc option -talus_snes_rtol nan: expected a finite number >= 0"
 refused "-talus_pc_type nothing" "PETSc option -talus_pc_type nothing: not a preconditioner"
 
-# A misspelled solver option is named after the first step (PETSc reads
-# options lazily), and a correct one is not.
+# A misspelled solver option is refused before anything is written: no
+# configuration of the solver reads it (a throwaway one is configured below
+# and above the direct limit). So is a value PETSc itself refuses, named.
+refused "-talus_snes_monitr -talus_snes_converged_reason" \
+  "PETSc option -talus_snes_monitr: read by no solver configuration of talus"
+refused "-talus_ksp_monitr -talus_snes_monitr" "PETSc options -talus_ksp_monitr, -talus_snes_monitr: read by no"
+refused "-talus_snes_monitor -talus_ksp_norm_type bogus" \
+  "PETSc option -talus_ksp_norm_type bogus: PETSc does not accept it (Unknown option bogus"
+"$talus" check bad_option.yaml -talus_snes_monitor -talus_pc_type gamg -talus_pc_gamg_threshold 0.01 \
+  -talus_mat_type baij -talus_newton_predictor gravity > good.log 2>&1 ||
+  { echo "FAIL: valid solver options refused"; cat good.log; exit 1; }
+"$talus" check bad_option.yaml -talus_snes_type ngmres -talus_npc_ksp_rtol 1e-3 -talus_npc_pc_type ilu > good.log 2>&1 ||
+  { echo "FAIL: valid nonlinear-preconditioner options refused"; cat good.log; exit 1; }
+# With NGMRES the outer Newton has no linear solver: its -talus_pc_type is
+# for another configuration (the inner Newton's is -talus_npc_pc_type).
+refused "-talus_snes_type ngmres -talus_pc_type ilu" "PETSc option -talus_pc_type: read by no solver configuration"
+# An option read only when a preconditioner is set up (a block solver's
+# sub-PC) is judged after the first step: a warning, since on one rank the
+# default ILU has no blocks to read it, and a correct one is not named.
 sed -e "s#directory: .*#directory: $work/unused_out#" -e "s#  end: .*#  end: 0.01#" "$repo/inputs/elastic_column.yaml" > unused.yaml
-"$talus" run unused.yaml -talus_snes_monitr -talus_snes_converged_reason > unused.log 2> unused.err
-grep -q "talus: warning: PETSc options never read by the solver (misspelled, or for another solver configuration): -talus_snes_monitr$" unused.err ||
-  { echo "FAIL: no warning for -talus_snes_monitr"; cat unused.err; exit 1; }
+"$talus" run unused.yaml -talus_sub_pc_type lu -talus_snes_converged_reason > unused.log 2> unused.err
+grep -q "talus: warning: PETSc options never read by the solver (misspelled, or for another solver configuration): -talus_sub_pc_type$" unused.err ||
+  { echo "FAIL: no warning for -talus_sub_pc_type"; cat unused.err; exit 1; }
 
 # Linear hats are accepted with a warning about the cell-crossing error (docs/grid.md).
 sed -e "s#directory: .*#directory: $work/linear_out#" -e "s#shape_function: .*#shape_function: linear#" "$repo/inputs/elastic_column.yaml" > linear.yaml

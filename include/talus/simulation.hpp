@@ -249,6 +249,12 @@ class Simulation {
 // leaving any option already given on the command line untouched.
 void apply_case_petsc_options(const CaseConfig& config);
 
+// Before anything is written: throws InputError naming the -talus_ options
+// (with the case file line of those from solver.petsc_options) that no
+// configuration of the solver reads (NewtonSolver::options_read_by_no_configuration).
+template <int dim>
+void check_solver_options(const CaseConfig& config, MPI_Comm comm);
+
 // The -talus_ PETSc options that nothing has read so far, as "-a, -b" (""
 // if none): after the first step, a misspelled or misplaced option.
 std::string unused_solver_options();

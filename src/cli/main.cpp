@@ -267,6 +267,10 @@ int main(int argc, char** argv) {
     if (command == "check") {
       talus::apply_case_petsc_options(config);
       talus::check_petsc_options(PETSC_COMM_WORLD);
+      if (config.dim == 2)
+        talus::check_solver_options<2>(config, PETSC_COMM_WORLD);
+      else
+        talus::check_solver_options<3>(config, PETSC_COMM_WORLD);
       if (rank == 0) {
         std::cout << "talus: " << argv[2] << " is a valid " << config.dim << "D case";
         // The explicit step is chosen when the case is read (docs/explicit.md#the-step).

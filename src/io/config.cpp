@@ -557,7 +557,8 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
     c.solver.balance_tolerance = s.real("balance_tolerance", 1e-8);
     if (!(c.solver.balance_tolerance >= 1e-15 && c.solver.balance_tolerance <= 1e-2))
       s.fail_value("balance_tolerance", "must be in [1e-15, 1e-2]");
-    for (auto& [k, v] : s.free_map("petsc_options")) {
+    const auto petsc_options = s.free_map("petsc_options");
+    for (auto& [k, v] : petsc_options) {
       std::string key = k;
       if (!key.empty() && key[0] == '-') key.erase(0, 1);
       PetscBool petsc_ready = PETSC_FALSE;
@@ -567,6 +568,8 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
         if (!why.empty()) s.fail_value("petsc_options", key + ": " + v, why);
       }
       c.solver.petsc_options.emplace_back(key, v);
+      // For a name that no solver configuration reads, found once PETSc is up.
+      c.solver.petsc_option_where[key] = s.section("petsc_options").where(k);
     }
     s.finish();
   }

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <map>
 #include <string>
 #include <utility>
 #include <vector>
@@ -176,6 +177,7 @@ struct SolverConfig {
   int direct_solver_limit = default_direct_solver_limit;
   double balance_tolerance = 1e-8;   // Newton stops when sum |F| <= tolerance * impulse scale
   std::vector<std::pair<std::string, std::string>> petsc_options;  // without the talus_ prefix
+  std::map<std::string, std::string> petsc_option_where;  // key -> "file:line: solver.petsc_options.key"
 };
 
 // Balanced ranks (docs/parallel.md): the grid's ownership follows the

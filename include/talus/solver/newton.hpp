@@ -60,6 +60,15 @@ class NewtonSolver {
   NewtonSolver(const NewtonSolver&) = delete;
   NewtonSolver& operator=(const NewtonSolver&) = delete;
 
+  // Before anything is written: configures a throwaway solver below and
+  // above the direct limit in a copy of the options database and returns
+  // the -talus_ options (names without the dash) that no configuration read
+  // (misspelled, e.g. talus_snes_monitr); throws InputError naming an option
+  // whose value PETSc refused. Options read only at set-up (block and
+  // multigrid sub-solvers, viewers, the LU fallback) are left to the warning
+  // after the first step (docs/command_line.md#petsc-options).
+  static std::vector<std::string> options_read_by_no_configuration(MPI_Comm comm, PetscInt direct_limit);
+
   // Solves F(v) = 0; on success the system holds v^{n+1} (MomentumSystem::finish).
   NewtonReport solve(MomentumSystem<dim>& system);
 
