@@ -104,6 +104,11 @@ with tempfile.TemporaryDirectory() as work:
             # or failed run is fine, a crash or a trace is not).
             if isinstance(doc.get("time"), dict) and "step" in doc["time"]:
                 doc["time"]["end"] = doc["time"]["step"]
+            elif isinstance(doc.get("time"), dict):
+                # An explicit case picks its own step (a fraction of a
+                # millisecond): a few of them, not the whole run (which took
+                # more than the timeout under the sanitizers, docs/testing.md).
+                doc["time"]["end"] = 1e-3
             doc["output"] = {"directory": os.path.join(work, f"run_{n}")}
             doc.pop("checkpoint", None)
             try:
