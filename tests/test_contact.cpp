@@ -308,6 +308,9 @@ void check_system_jacobian(bool slip_floor_and_wall) {
   // The block matrix of the direct solvers holds the same Jacobian: the same
   // sums, only stored by dim x dim blocks (round-off at most).
   CHECK(testing::block_matrix_difference(system, v, J) <= 1e-14);
+  // The Jacobian as an operator, without the matrix (3D's default with kept
+  // factors): the same products, summed in another order (round-off).
+  CHECK(testing::operator_difference(system, v, w, Jw) <= 1e-13);
   PetscInt rows;
   TALUS_PETSC(MatGetSize(J, &rows, nullptr));
   CHECK(rows == active.global_count() * dim);  // contact adds no unknowns

@@ -133,6 +133,9 @@ void check_jacobian(const std::string& shape, double theta, const std::string& m
   // The block matrix of the direct solvers holds the same Jacobian: the same
   // sums, only stored by dim x dim blocks (round-off at most).
   CHECK(testing::block_matrix_difference(system, v, J) <= 1e-14);
+  // The Jacobian as an operator, without the matrix (3D's default with kept
+  // factors): the same products, summed in another order (round-off).
+  CHECK(testing::operator_difference(system, v, w, Jw) <= 1e-13);
   // Constrained rows are m_i e_i: the Jacobian is non-singular and the diagonal is positive.
   Vec diag;
   TALUS_PETSC(VecDuplicate(v, &diag));

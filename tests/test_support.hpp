@@ -109,6 +109,25 @@ double block_matrix_difference(MomentumSystem<dim>& system, Vec v, Mat aij) {
   return difference / norm;
 }
 
+// ||J(v) w - Jw||_2 / ||Jw||_2 with J(v) w from the particle operator
+// (MomentumSystem::apply_jacobian, no matrix) and Jw = MatMult of the
+// assembled Jacobian at v, which the caller has computed.
+template <int dim>
+double operator_difference(MomentumSystem<dim>& system, Vec v, Vec w, Vec Jw) {
+  Vec y, d;
+  VecDuplicate(w, &y);
+  VecDuplicate(w, &d);
+  system.prepare_operator(v);
+  system.apply_jacobian(w, y);
+  double norm = 0.0, difference = 0.0;
+  VecNorm(Jw, NORM_2, &norm);
+  VecWAXPY(d, -1.0, Jw, y);
+  VecNorm(d, NORM_2, &difference);
+  VecDestroy(&y);
+  VecDestroy(&d);
+  return difference / norm;
+}
+
 // max_k |a_k - b_k| / max_k |a_k| (the plain difference when a is zero).
 inline double max_relative_difference(const std::vector<double>& a, const std::vector<double>& b) {
   double scale = 0, diff = 0;

@@ -216,7 +216,7 @@ void MomentumSystem<dim>::contact_rows(Vec v, Vec F) {
 }
 
 template <int dim>
-std::vector<double> MomentumSystem<dim>::contact_row_factors(Vec v) {
+void MomentumSystem<dim>::contact_factors(Vec v) {
   PetscBool same = PETSC_FALSE;
   if (contact_at_) TALUS_PETSC(VecEqual(v, contact_at_, &same));
   if (!same) {
@@ -225,18 +225,6 @@ std::vector<double> MomentumSystem<dim>::contact_row_factors(Vec v) {
     residual(v, F);
     TALUS_PETSC(VecDestroy(&F));
   }
-  const auto t0 = std::chrono::steady_clock::now();
-  // The natural map's row block of contact point i is linear in the point's
-  // momentum row block dR_i/dv (the assembled row, mass included):
-  //   dPhi_i/dv = P_i dR_i/dv + Q_i E_i,   E_i: the columns of v_i,
-  //   P_i = I - D_i (= dPhi/dr),  Q_i = rho_i D_i du_hat/du (= dPhi/du),
-  // where a component held by a slip face keeps its own row (r_a = v_a = 0
-  // are constants: column a of P and Q drops out, row a of P is e_a, of Q 0).
-  // Linear in the row, so every rank can apply P_i to its own particles'
-  // share of the row before the shares are summed: the contact rows are
-  // written in the same assembly pass as the momentum rows (no MatGetRow,
-  // no second assembly). Ranks that hold point i as a ghost need P_i from its
-  // owner: one scatter per column of P. Q_i goes with the mass, on the owner.
   contact_left_.resize(contacts_.size());
   contact_right_.resize(contacts_.size());
   for (std::size_t c = 0; c < contacts_.size(); ++c) {
@@ -249,6 +237,93 @@ std::vector<double> MomentumSystem<dim>::contact_row_factors(Vec v) {
     for (int a = 0; a < dim; ++a)
       if (!contacts_[c].free[a]) P.row(a) = Matrix<dim>::Identity().row(a), Q.row(a).setZero();
   }
+}
+
+template <int dim>
+int MomentumSystem<dim>::stencil_nodes() const {
+  const int width = grid_.shape() == ShapeKind::linear ? 2 : 3;
+  return dim == 2 ? width * width : width * width * width;
+}
+
+template <int dim>
+void MomentumSystem<dim>::prepare_operator(Vec v) {
+  if (any_contacts_) contact_factors(v);
+  if (!evaluated_at(v)) evaluate_particles(v);
+}
+
+template <int dim>
+void MomentumSystem<dim>::apply_jacobian(Vec x, Vec y) {
+  // y = J x with J as jacobian() assembles it, particle by particle:
+  //   (J x)_a = m_a x_a + h theta^2 sum_p V_p sum_j dN_a/dx_j (A_p : L_p(x))_ij,
+  //   L_p(x) = sum_b x_b (x) grad N_b(x_p),
+  // a constrained component's row m x and column zero; a contact point's
+  // row P_i (momentum row) + Q_i x_i (contact_row_factors). Per particle
+  // about 20 dim^2 multiply-adds against 3 dim^2 n_nodes^2 for its share of
+  // the assembled matrix: in 3D (27 nodes) the matrix costs as much as 25
+  // products (docs/solver.md#the-jacobian-as-an-operator).
+  active_.to_grid(x, operator_x_);
+  const int n = grid_.ghosted_count();
+  for (int i = 0; i < n; ++i)
+    for (int c = 0; c < dim; ++c)
+      if (active_.constrained(i, c)) operator_x_[dim * i + c] = 0.0;
+  operator_y_.assign(operator_x_.size(), 0.0);
+  const double scale = h_ * theta_ * theta_;
+  for (std::size_t p = 0; p < stencils_.size(); ++p) {
+    const StressTangent& A = tangent_[p];
+    if (A.isZero(0.0)) continue;
+    const Stencil<dim>& st = stencils_[p];
+    Matrix<dim> L = Matrix<dim>::Zero();
+    for (int b = 0; b < st.count; ++b)
+      L += Eigen::Map<const Vector<dim>>(operator_x_.data() + static_cast<std::size_t>(dim) * st.local[b]) *
+           st.gradient[b].transpose();
+    // (A : L)_ij with L flattened row-major, (k, l) -> k dim + l, as A's columns.
+    const Eigen::Matrix<double, nL, 1> t =
+        scale * reference_volume_[p] * (A * Eigen::Map<const Eigen::Matrix<double, nL, 1>>(
+                                                Eigen::Matrix<double, dim, dim, Eigen::RowMajor>(L).data()));
+    const Eigen::Map<const Eigen::Matrix<double, dim, dim, Eigen::RowMajor>> T(t.data());
+    for (int a = 0; a < st.count; ++a)
+      Eigen::Map<Vector<dim>>(operator_y_.data() + static_cast<std::size_t>(dim) * st.local[a]) +=
+          T * st.gradient[a];
+  }
+  TALUS_PETSC(VecZeroEntries(y));
+  active_.add_to_compact(operator_y_, y);
+  PetscScalar* out;
+  const PetscScalar* in;
+  TALUS_PETSC(VecGetArray(y, &out));
+  TALUS_PETSC(VecGetArrayRead(x, &in));
+  const auto& owned = active_.owned_points();
+  for (std::size_t k = 0; k < owned.size(); ++k) {
+    const int i = owned[k];
+    for (int c = 0; c < dim; ++c) {
+      const std::size_t r = dim * k + c;
+      out[r] = active_.constrained(i, c) ? fields_.mass[i] * in[r] : out[r] + fields_.mass[i] * in[r];
+    }
+  }
+  for (std::size_t c = 0; c < contacts_.size() && any_contacts_; ++c) {
+    const std::size_t r = static_cast<std::size_t>(contacts_[c].row);
+    Eigen::Map<Vector<dim>> row(out + r);
+    const Eigen::Map<const Vector<dim>> xi(in + r);
+    row = (contact_left_[c] * row + contact_right_[c] * xi).eval();
+  }
+  TALUS_PETSC(VecRestoreArrayRead(x, &in));
+  TALUS_PETSC(VecRestoreArray(y, &out));
+}
+
+template <int dim>
+std::vector<double> MomentumSystem<dim>::contact_row_factors(Vec v) {
+  contact_factors(v);
+  const auto t0 = std::chrono::steady_clock::now();
+  // The natural map's row block of contact point i is linear in the point's
+  // momentum row block dR_i/dv (the assembled row, mass included):
+  //   dPhi_i/dv = P_i dR_i/dv + Q_i E_i,   E_i: the columns of v_i,
+  //   P_i = I - D_i (= dPhi/dr),  Q_i = rho_i D_i du_hat/du (= dPhi/du),
+  // where a component held by a slip face keeps its own row (r_a = v_a = 0
+  // are constants: column a of P and Q drops out, row a of P is e_a, of Q 0).
+  // Linear in the row, so every rank can apply P_i to its own particles'
+  // share of the row before the shares are summed: the contact rows are
+  // written in the same assembly pass as the momentum rows (no MatGetRow,
+  // no second assembly). Ranks that hold point i as a ghost need P_i from its
+  // owner: one scatter per column of P. Q_i goes with the mass, on the owner.
   const int n = grid_.ghosted_count();
   std::vector<double> left(static_cast<std::size_t>(n) * dim * dim, 0.0), column;
   Vec compact = active_.create_vector();

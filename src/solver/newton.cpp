@@ -24,16 +24,46 @@ PetscErrorCode form_residual(SNES, Vec v, Vec F, void* ctx) {
 // LU factors are computed: SNES reads its preconditioner lag after this
 // callback, so lag -2 factors this Jacobian (and sets the lag to -1), and
 // lag -1 keeps the factors of an earlier one for GMRES to precondition with.
+//
+// With the Jacobian as an operator (docs/solver.md#the-jacobian-as-an-operator)
+// the Krylov method multiplies by the particle tangents at v, and the matrix
+// P is assembled only when its factors are computed: kept factors
+// precondition the exact operator, as they precondition the exact matrix.
 template <int dim>
-PetscErrorCode form_jacobian(SNES snes, Vec v, Mat J, Mat, void* ctx) {
+PetscErrorCode form_jacobian(SNES snes, Vec v, Mat J, Mat P, void* ctx) {
   auto* context = static_cast<typename NewtonSolver<dim>::CallbackContext*>(ctx);
-  PetscErrorCode ierr = petsc_callback([&] { context->system->jacobian(v, J); });
-  if (ierr) return ierr;
   auto& factorization = *context->factorization;
-  if (!factorization.reused_mode) return 0;
+  if (!context->jacobian_operator) {
+    PetscErrorCode ierr = petsc_callback([&] { context->system->jacobian(v, J); });
+    if (ierr) return ierr;
+    ++context->assembled;
+    if (!factorization.reused_mode) return 0;
+    factorization.fresh = false;
+    if (factorization.refactor) factorization.factor_now();
+    return SNESSetLagPreconditioner(snes, factorization.fresh ? -2 : -1);
+  }
   factorization.fresh = false;
+  PetscErrorCode ierr = petsc_callback([&] {
+    context->system->prepare_operator(v);
+    if (factorization.refactor) {
+      context->system->jacobian(v, P);
+      ++context->assembled;
+    }
+  });
+  if (ierr) return ierr;
+  PetscCall(MatAssemblyBegin(J, MAT_FINAL_ASSEMBLY));  // the operator changed with v
+  PetscCall(MatAssemblyEnd(J, MAT_FINAL_ASSEMBLY));
   if (factorization.refactor) factorization.factor_now();
   return SNESSetLagPreconditioner(snes, factorization.fresh ? -2 : -1);
+}
+
+// y = J x by the particle operator.
+template <int dim>
+PetscErrorCode operator_mult(Mat J, Vec x, Vec y) {
+  void* ctx = nullptr;
+  PetscCall(MatShellGetContext(J, &ctx));
+  auto* context = static_cast<typename NewtonSolver<dim>::CallbackContext*>(ctx);
+  return petsc_callback([&] { context->system->apply_jacobian(x, y); });
 }
 
 // The physical test (newton.hpp): U = ||F||_1 / S <= tolerance. F is in
@@ -116,7 +146,7 @@ PetscErrorCode record_linear_solve(KSP ksp, Vec, Vec, void* ctx) {
 // that fails counts as a failed linear solve (the convergence test stops the
 // SNES after this iteration; its update is discarded with the step).
 template <int dim>
-PetscErrorCode resolve_on_fresh_factors(SNESLineSearch line_search, Vec, Vec direction, PetscBool* changed,
+PetscErrorCode resolve_on_fresh_factors(SNESLineSearch line_search, Vec x, Vec direction, PetscBool* changed,
                                         void* ctx) {
   *changed = PETSC_FALSE;
   auto* context = static_cast<typename NewtonSolver<dim>::CallbackContext*>(ctx);
@@ -129,6 +159,13 @@ PetscErrorCode resolve_on_fresh_factors(SNESLineSearch line_search, Vec, Vec dir
   PetscCall(SNESLineSearchGetSNES(line_search, &snes));
   PetscCall(SNESGetKSP(snes, &ksp));
   PetscCall(SNESGetFunction(snes, &F, nullptr, nullptr));
+  if (context->jacobian_operator) {
+    // The matrix of the factors, at this iterate (assembled only for factors).
+    Mat J, P;
+    PetscCall(SNESGetJacobian(snes, &J, &P, nullptr, nullptr));
+    PetscCall(petsc_callback([&] { context->system->jacobian(x, P); }));
+    ++context->assembled;
+  }
   // The PC's matrix changed since its factors were computed, so PCSetUp
   // factors it again once reuse is off.
   PetscCall(KSPSetReusePreconditioner(ksp, PETSC_FALSE));
@@ -192,6 +229,7 @@ static NewtonReport retried(const NewtonReport& first, NewtonReport retry) {
   retry.iterations += first.iterations;
   retry.linear_iterations += first.linear_iterations;
   retry.factorizations += first.factorizations;
+  retry.jacobian_matrices += first.jacobian_matrices;
   retry.structure_built = first.structure_built;
   return retry;
 }
@@ -205,6 +243,7 @@ NewtonSolver<dim>::NewtonSolver(MPI_Comm comm, PetscInt direct_limit, double bal
   scale_.stagnation_window = count_option("stagnation_iterations", default_stagnation_iterations);
   fallback_limit_ = count_option("direct_fallback_limit", default_direct_fallback_limit);
   predict_last_acceleration_ = choice_option("newton_predictor", {"last", "gravity"}) == "last";
+  jacobian_choice_ = choice_option("jacobian", {"auto", "matrix", "operator"});
   check_petsc_options(comm);
 }
 
@@ -217,6 +256,7 @@ template <int dim>
 void NewtonSolver<dim>::destroy() {
   SNESDestroy(&snes_);
   MatDestroy(&J_);
+  MatDestroy(&J_operator_);
   VecDestroy(&F_);
   unknown_points_.clear();
   unknown_count_ = -1;
@@ -452,6 +492,21 @@ void NewtonSolver<dim>::build(MomentumSystem<dim>& system, PetscInt unknowns, bo
     configure(unknowns);
   }
   J_ = system.create_matrix(matrix_type());
+  // The Jacobian as an operator where kept factors precondition a Krylov
+  // method: by default (auto) with 27-point stencils (3D quadratic
+  // B-splines), whose matrix costs about 25 operator products to assemble,
+  // more than the Krylov iterations of a Newton step need; in 2D (9 points)
+  // the matrix is cheaper than the products (docs/solver.md#the-jacobian-as-an-operator).
+  context_.jacobian_operator = factorization_.reused_mode &&
+                               (jacobian_choice_ == "operator" ||
+                                (jacobian_choice_ == "auto" && system.stencil_nodes() >= 27));
+  if (context_.jacobian_operator) {
+    PetscInt rows, columns, global_rows, global_columns;
+    TALUS_PETSC(MatGetLocalSize(J_, &rows, &columns));
+    TALUS_PETSC(MatGetSize(J_, &global_rows, &global_columns));
+    TALUS_PETSC(MatCreateShell(comm_, rows, columns, global_rows, global_columns, &context_, &J_operator_));
+    TALUS_PETSC(MatShellSetOperation(J_operator_, MATOP_MULT, reinterpret_cast<void (*)(void)>(operator_mult<dim>)));
+  }
   Vec v = system.initial_guess();
   TALUS_PETSC(VecDuplicate(v, &F_));
   TALUS_PETSC(VecDestroy(&v));
@@ -494,8 +549,9 @@ NewtonReport NewtonSolver<dim>::run_snes(MomentumSystem<dim>& system, Start star
   context_.factorization = &factorization_;
   context_.linear_failures = &linear_failures_;
   const long factorizations_before = factorization_.factorizations;
+  const long assembled_before = context_.assembled;
   TALUS_PETSC(SNESSetFunction(snes_, F_, form_residual<dim>, &context_));
-  TALUS_PETSC(SNESSetJacobian(snes_, J_, J_, form_jacobian<dim>, &context_));
+  TALUS_PETSC(SNESSetJacobian(snes_, context_.jacobian_operator ? J_operator_ : J_, J_, form_jacobian<dim>, &context_));
   std::vector<PetscReal> history(128);
   TALUS_PETSC(SNESSetConvergenceHistory(snes_, history.data(), nullptr, static_cast<PetscInt>(history.size()),
                                         PETSC_TRUE));
@@ -539,6 +595,7 @@ NewtonReport NewtonSolver<dim>::run_snes(MomentumSystem<dim>& system, Start star
   report.unbalances = scale_.history;
   report.linear_failures = linear_failures_;
   report.factorizations = factorization_.factorizations - factorizations_before;
+  report.jacobian_matrices = context_.assembled - assembled_before;
   report.fresh_resolves = factorization_.resolves - resolves_before;
   if (!report.converged && scale_.stagnated) report.reason = "STAGNATED";
   if (!report.converged && linear_failures_ > 0) report.reason = SNESConvergedReasons[SNES_DIVERGED_LINEAR_SOLVE];

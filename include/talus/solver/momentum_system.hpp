@@ -50,6 +50,13 @@ class MomentumSystem {
 
   void residual(Vec v, Vec F);
   void jacobian(Vec v, Mat J);
+  // The Jacobian's action without its matrix (docs/solver.md#the-jacobian-as-an-operator):
+  // prepare_operator(v) evaluates the particle tangents and contact factors
+  // at v, then apply_jacobian(x, y) sets y = J(v) x from them, equal to
+  // jacobian(v, J) followed by MatMult(J, x, y) to round-off.
+  void prepare_operator(Vec v);
+  int stencil_nodes() const;  // grid points per particle: 9 or 27 (quadratic B-splines), 4 or 8 (linear hats)
+  void apply_jacobian(Vec x, Vec y);
   // Preallocated for this step's couplings, block size dim, of `type` (MATAIJ
   // or MATBAIJ) unless -talus_mat_type says otherwise.
   Mat create_matrix(MatType type = MATAIJ) const;
@@ -95,6 +102,7 @@ class MomentumSystem {
   // P_i dR_i/dv + Q_i on v_i) at v, row-major dim x dim per ghosted point
   // (identity off contact points); keeps P_i, Q_i of the owned contacts.
   std::vector<double> contact_row_factors(Vec v);
+  void contact_factors(Vec v);  // P_i, Q_i of the contacts at v (the first half of contact_row_factors)
 
   const Grid<dim>& grid_;
   const std::vector<Stencil<dim>>& stencils_;
@@ -123,6 +131,7 @@ class MomentumSystem {
   // ghosted point, the points of the slots, their block rows.
   std::vector<int> jacobian_slot_, jacobian_slot_point_;
   std::vector<double> jacobian_rows_;
+  std::vector<double> operator_x_, operator_y_;  // apply_jacobian's ghosted vectors
   Vec evaluated_at_ = nullptr;  // the v of the last evaluation
 
   std::vector<ContactPoint<dim>> contacts_;

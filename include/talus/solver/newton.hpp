@@ -45,6 +45,7 @@ struct NewtonReport {
   bool direct_fallback = false;        // a linear solve failed and the step was solved again by LU
   long linear_failures = 0;            // linear solves that did not converge (the step is judged on U alone)
   long factorizations = 0;             // numeric LU factorizations in this step (reused-factorization mode)
+  long jacobian_matrices = 0;          // Jacobian matrices assembled (with the operator: only for factors)
   long fresh_resolves = 0;             // Newton systems solved again on fresh factors after stale ones failed
   bool predictor_retry = false;        // Newton failed from one predictor and the step was solved from the other
 };
@@ -130,6 +131,11 @@ class NewtonSolver {
     MomentumSystem<dim>* system = nullptr;
     Factorization* factorization = nullptr;
     long* linear_failures = nullptr;
+    // The Krylov method multiplies by the particle operator
+    // (MomentumSystem::apply_jacobian) and the matrix is assembled only when
+    // its factors are computed (docs/solver.md#the-jacobian-as-an-operator).
+    bool jacobian_operator = false;
+    long assembled = 0;  // Jacobian matrices assembled (since construction)
   };
 
  private:
@@ -163,6 +169,8 @@ class NewtonSolver {
   Scale scale_;
   SNES snes_ = nullptr;
   Mat J_ = nullptr;
+  Mat J_operator_ = nullptr;  // MATSHELL over MomentumSystem::apply_jacobian, or none
+  std::string jacobian_choice_;  // -talus_jacobian: auto, matrix or operator
   Vec F_ = nullptr;
   bool forced_direct_ = false;          // the current structure was built for an LU retry
   std::vector<int> unknown_points_;     // the active set the structure was built for (this rank)
