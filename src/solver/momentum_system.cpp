@@ -55,6 +55,7 @@ MomentumSystem<dim>::MomentumSystem(const Grid<dim>& grid, const Particles<dim>&
   stress_end_ = stress_old_;
   plastic_increment_.assign(np, Voigt::Zero());
   tangent_.resize(np);
+  stiff_.assign(np, 0);
 
   // v^n on the unknowns only: inactive points and constrained components carry none.
   const int n = grid.ghosted_count();
@@ -144,6 +145,7 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
           for (int j = 0; j < dim; ++j) A(i * dim + j, k * dim + l) = column[voigt_index(i, j)];
       }
 
+    if (with_tangents_) stiff_[p] = !A.isZero(0.0);
     const Voigt st_theta = (1.0 - theta_) * stress_old_[p] + theta_ * update.stress;
     const Eigen::Matrix3d sigma = voigt_to_tensor(st_theta);
     const Matrix<dim> s_dim = sigma.template topLeftCorner<dim, dim>();
@@ -268,22 +270,29 @@ void MomentumSystem<dim>::apply_jacobian(Vec x, Vec y) {
       if (active_.constrained(i, c)) operator_x_[dim * i + c] = 0.0;
   operator_y_.assign(operator_x_.size(), 0.0);
   const double scale = h_ * theta_ * theta_;
+  constexpr int max_nodes = Stencil<dim>::max_nodes;
+  using NodeValues = Eigen::Matrix<double, Eigen::Dynamic, dim, Eigen::RowMajor, max_nodes, dim>;
+  NodeValues X, Y;
   for (std::size_t p = 0; p < stencils_.size(); ++p) {
-    const StressTangent& A = tangent_[p];
-    if (A.isZero(0.0)) continue;
+    if (!stiff_[p]) continue;
     const Stencil<dim>& st = stencils_[p];
-    Matrix<dim> L = Matrix<dim>::Zero();
-    for (int b = 0; b < st.count; ++b)
-      L += Eigen::Map<const Vector<dim>>(operator_x_.data() + static_cast<std::size_t>(dim) * st.local[b]) *
-           st.gradient[b].transpose();
-    // (A : L)_ij with L flattened row-major, (k, l) -> k dim + l, as A's columns.
+    const int n = st.count;
+    // The particle's nodes' values and gradients as n x dim matrices, so
+    // that both sums are small dense products (coefficient-wise: Eigen's
+    // blocked product costs more than the sums at these sizes).
+    const Eigen::Map<const NodeValues> grad(st.gradient[0].data(), n, dim);
+    X.resize(n, dim);
+    for (int b = 0; b < n; ++b)
+      X.row(b) = Eigen::Map<const Vector<dim>>(operator_x_.data() + static_cast<std::size_t>(dim) * st.local[b]);
+    // L(k, l) = sum_b x_b,k dN_b/dx_l, flattened row-major (k dim + l) as A's columns.
+    const Eigen::Matrix<double, dim, dim, Eigen::RowMajor> L = X.transpose().lazyProduct(grad);
     const Eigen::Matrix<double, nL, 1> t =
-        scale * reference_volume_[p] * (A * Eigen::Map<const Eigen::Matrix<double, nL, 1>>(
-                                                Eigen::Matrix<double, dim, dim, Eigen::RowMajor>(L).data()));
+        scale * reference_volume_[p] * tangent_[p].lazyProduct(Eigen::Map<const Eigen::Matrix<double, nL, 1>>(L.data()));
+    // y_a,i = sum_j T(i, j) dN_a/dx_j: Y = grad T^T.
     const Eigen::Map<const Eigen::Matrix<double, dim, dim, Eigen::RowMajor>> T(t.data());
-    for (int a = 0; a < st.count; ++a)
-      Eigen::Map<Vector<dim>>(operator_y_.data() + static_cast<std::size_t>(dim) * st.local[a]) +=
-          T * st.gradient[a];
+    Y.noalias() = grad.lazyProduct(T.transpose());
+    for (int a = 0; a < n; ++a)
+      Eigen::Map<Vector<dim>>(operator_y_.data() + static_cast<std::size_t>(dim) * st.local[a]) += Y.row(a).transpose();
   }
   TALUS_PETSC(VecZeroEntries(y));
   active_.add_to_compact(operator_y_, y);

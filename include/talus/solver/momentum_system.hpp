@@ -127,6 +127,7 @@ class MomentumSystem {
   std::vector<double> closed_voids_;  // volumetric strain of the voids closed this step (<= 0)
   std::vector<Voigt> rotated_stress_;  // sigma* (the Jaumann-rotated start stress) of the last evaluation
   std::vector<StressTangent> tangent_;
+  std::vector<char> stiff_;  // A_p != 0 (a particle at the apex adds nothing to the Jacobian)
   // Jacobian assembly buffers (kept between Jacobians): the slot of each
   // ghosted point, the points of the slots, their block rows.
   std::vector<int> jacobian_slot_, jacobian_slot_point_;
