@@ -1,0 +1,138 @@
+#!/usr/bin/python3
+"""The finite-strain settling column of issue 13, item 1 (docs/formulation.md#finite-strain-the-settling-column).
+
+An elastic column (nu = 0, rho0 = 1000 kg/m^3, height l0 = 1 m, four cells
+wide between slip walls, on a slip floor) settles under gravity with
+backward-Euler steps until it is at rest. Whatever the constitutive law,
+the exact Cauchy stress is sigma_yy(Y) = -rho0 g (l0 - Y) in terms of a
+particle's original height Y: the weight above it per unit width, whose
+width the walls keep. The script runs each configuration, reads the final
+output and prints, relative to rho0 g l0:
+
+  L2      the root mean square of sigma_yy - exact over the particles,
+  bias    their mean (a smooth error of the strain measure shows here),
+  worst   the largest |sigma_yy - exact|,
+  interior  the largest error for 0.2 l0 < Y < 0.8 l0,
+
+and the largest displacement in cells. E sets the strain: rho0 g l0 / E is
+the strain at the base (0.049 at E = 2e5 Pa, 0.0049 at 2e6 Pa).
+
+usage: study_finite_strain_column.py [--talus build/talus] [--work DIR]
+"""
+import argparse
+import glob
+import os
+import subprocess
+import sys
+import tempfile
+
+import numpy as np
+import vtk
+from vtk.util.numpy_support import vtk_to_numpy
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from bench_common import table_lines  # noqa: E402
+from pvd import pvd_series  # noqa: E402
+
+RHO, G, L0 = 1000.0, 9.81, 1.0
+
+# (cell m, particles per cell, step s, end s, E Pa)
+CONFIGURATIONS = [
+    (0.1, 2, 0.01, 3.0, 2e5),
+    (0.05, 2, 0.01, 3.0, 2e5),
+    (0.025, 2, 0.01, 3.0, 2e5),
+    (0.0125, 2, 0.01, 3.0, 2e5),
+    (0.025, 3, 0.01, 3.0, 2e5),
+    (0.025, 2, 0.005, 6.0, 2e5),
+    (0.05, 2, 0.5, 5.0, 2e5),
+    (0.025, 2, 0.5, 5.0, 2e5),
+    (0.0125, 2, 0.5, 5.0, 2e5),
+    (0.025, 2, 0.1, 5.0, 2e5),
+    (0.05, 2, 0.01, 3.0, 6e5),
+    (0.025, 2, 0.01, 3.0, 6e5),
+    (0.05, 2, 0.01, 3.0, 2e6),
+    (0.025, 2, 0.01, 3.0, 2e6),
+    (0.0125, 2, 0.01, 3.0, 2e6),
+    (0.0125, 2, 0.01, 3.0, 2e7),
+]
+
+
+def case_text(cell, ppc, step, end, E, directory):
+    return f"""grid:
+  lower: [0.0, 0.0]
+  upper: [{4 * cell}, {1.2 * L0}]
+  cell_size: {cell}
+time:
+  end: {end}
+  step: {step}
+  theta: 1.0
+output:
+  directory: {directory}
+  interval: {end}
+gravity: [0.0, {-G}]
+materials:
+  - name: soil
+    model: linear_elastic
+    density: {RHO}
+    youngs_modulus: {E}
+    poisson_ratio: 0.0
+bodies:
+  - name: column
+    material: soil
+    box: {{lower: [0.0, 0.0], upper: [{4 * cell}, {L0}]}}
+    particles_per_cell: {ppc}
+boundaries:
+  x_min: slip
+  x_max: slip
+  y_min: slip
+  y_max: slip
+"""
+
+
+def final_state(directory):
+    _, path = pvd_series(glob.glob(os.path.join(directory, "particles.pvd"))[0])[-1]
+    reader = vtk.vtkXMLPUnstructuredGridReader() if path.endswith(".pvtu") else vtk.vtkXMLUnstructuredGridReader()
+    reader.SetFileName(path)
+    reader.Update()
+    grid = reader.GetOutput()
+    data = grid.GetPointData()
+    x = vtk_to_numpy(grid.GetPoints().GetData())
+    u = vtk_to_numpy(data.GetArray("displacement"))
+    stress = vtk_to_numpy(data.GetArray("stress"))
+    velocity = vtk_to_numpy(data.GetArray("velocity"))
+    return x, u, stress, velocity
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--talus", default=os.path.join(os.path.dirname(__file__), "..", "build", "talus"))
+    parser.add_argument("--work", default=None)
+    args = parser.parse_args()
+    work = args.work or tempfile.mkdtemp(prefix="finite_strain_")
+    os.makedirs(work, exist_ok=True)
+    rows = []
+    for n, (cell, ppc, step, end, E) in enumerate(CONFIGURATIONS):
+        directory = os.path.join(work, f"run_{n}")
+        case = os.path.join(work, f"case_{n}.yaml")
+        with open(case, "w") as f:
+            f.write(case_text(cell, ppc, step, end, E, directory))
+        subprocess.run([os.path.abspath(args.talus), "run", case, "--quiet", "--overwrite"], check=True,
+                       stdout=subprocess.DEVNULL)
+        x, u, stress, velocity = final_state(directory)
+        Y = x[:, 1] - u[:, 1]
+        error = (stress[:, 1] + RHO * G * (L0 - Y)) / (RHO * G * L0)
+        interior = (Y > 0.2 * L0) & (Y < 0.8 * L0)
+        rows.append({"cell": cell, "ppc": ppc, "h": step, "steps": int(round(end / step)), "E": E,
+                     "L2": float(np.sqrt(np.mean(error ** 2))), "bias": float(np.mean(error)),
+                     "worst": float(np.abs(error).max()), "interior": float(np.abs(error[interior]).max()),
+                     "moved": float(np.abs(u[:, 1]).max() / cell), "vmax": float(np.abs(velocity).max())})
+        print(f"run {n + 1}/{len(CONFIGURATIONS)} done", file=sys.stderr)
+    columns = [("cell", "cell m", "{:g}"), ("ppc", "ppc", "{}"), ("h", "h s", "{:g}"), ("steps", "steps", "{}"),
+               ("E", "E Pa", "{:.0e}"), ("L2", "L2", "{:.2e}"), ("bias", "bias", "{:+.1e}"),
+               ("worst", "worst", "{:.2e}"), ("interior", "interior", "{:.2e}"),
+               ("moved", "moved cells", "{:.2f}"), ("vmax", "v_max m/s", "{:.0e}")]
+    print("\n".join(table_lines(rows, columns)))
+
+
+if __name__ == "__main__":
+    main()
