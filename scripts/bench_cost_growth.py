@@ -3,7 +3,10 @@
 per particle and Newton iteration, Krylov iterations per Newton iteration,
 the share of each phase of the step (transfers: stencils, P2G, G2P, commit;
 the solve: active set, material updates, assembly, linear solves; of which
-contact), and peak memory, as the particle count grows, for the implicit
+contact; and within the solve the stress updates with the internal forces,
+the Jacobian matrices' assembly and the linear solves with their
+factorizations, of which the operator products of docs/solver.md#the-jacobian-as-an-operator),
+and peak memory, as the particle count grows, for the implicit
 step and the explicit integrator (docs/explicit.md).
 
 The case: the reference column (0.2 x 0.4 m of Mohr-Coulomb sand, phi 30,
@@ -94,7 +97,11 @@ def main():
                     "us/particle-Newton": 1e6 * cpu / (newton * s["particles"]) if newton else "-",
                     "Newton/step": newton / n, "Krylov/Newton": s["linear_iterations"] / newton if newton else "-",
                     "transfer %": 100 * s["transfer_seconds"] / wall, "solve %": 100 * s["solve_seconds"] / wall,
-                    "contact %": 100 * s["contact_seconds"] / wall, "peak MiB": s["peak_rss_mb"],
+                    "contact %": 100 * s["contact_seconds"] / wall,
+                    "material %": 100 * s["material_seconds"] / wall,
+                    "assembly %": 100 * s["assembly_seconds"] / wall,
+                    "linear %": 100 * s["linear_solve_seconds"] / wall,
+                    "operator %": 100 * s["operator_seconds"] / wall, "peak MiB": s["peak_rss_mb"],
                     "kB/particle": 1024 * s["peak_rss_mb"] / s["particles"]})
                 r = rows[-1]
                 print(f"{dim}D {integrator:8s} {r['particles']:8d} particles: {cpu:7.2f} s, {n} steps, "
@@ -105,6 +112,8 @@ def main():
                ("us/particle-Newton", "µs/particle-Newton", "{:.2f}"), ("Newton/step", "Newton/step", "{:.1f}"),
                ("Krylov/Newton", "Krylov/Newton", "{:.1f}"), ("transfer %", "transfers %", "{:.0f}"),
                ("solve %", "solve %", "{:.0f}"), ("contact %", "of which contact %", "{:.1f}"),
+               ("material %", "stress updates %", "{:.0f}"), ("assembly %", "matrix assembly %", "{:.0f}"),
+               ("linear %", "linear solves %", "{:.0f}"), ("operator %", "of which operator %", "{:.0f}"),
                ("peak MiB", "peak MiB", "{:.0f}"), ("kB/particle", "kB/particle", "{:.2f}")]
     print()
     print("\n".join(table_lines(rows, columns)))

@@ -211,6 +211,10 @@ StepReport Simulation<dim>::advance(double h) {
   }
   report.solve_seconds = seconds_since(t1);
   report.contact_seconds += system.contact_seconds();
+  report.material_seconds = system.material_seconds();
+  report.assembly_seconds = system.assembly_seconds();
+  report.operator_seconds = system.operator_seconds();
+  report.linear_seconds = report.newton.linear_seconds;
   if (!report.newton.converged) return report;
   if (equilibrium_stage_) {
     // No motion: the particles keep their places, deformation gradients and

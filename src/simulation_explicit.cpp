@@ -134,6 +134,7 @@ StepReport Simulation<dim>::advance_explicit(double h) {
   system.finish(v);
   TALUS_PETSC(VecDestroy(&v));
   report.solve_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+  report.material_seconds = system.material_seconds();
   report.newton.converged = true;
   report.newton.reason = "explicit";
 

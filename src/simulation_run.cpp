@@ -323,6 +323,10 @@ RunSummary Simulation<dim>::run_steps(std::ostream* progress, const ProgressOpti
     summary.transfer_seconds += r.transfer_seconds;
     summary.solve_seconds += r.solve_seconds;
     summary.contact_seconds += r.contact_seconds;
+    summary.material_seconds += r.material_seconds;
+    summary.assembly_seconds += r.assembly_seconds;
+    summary.linear_seconds += r.linear_seconds;
+    summary.operator_seconds += r.operator_seconds;
     summary.structure_builds += r.newton.structure_built;
     summary.direct_fallbacks += r.newton.direct_fallback;
     summary.factorizations += r.newton.factorizations;

@@ -26,6 +26,10 @@ struct StepReport {
   double solve_seconds = 0;       // active set + Newton
   PetscInt contact_points = 0;    // global number of contact candidates
   double contact_seconds = 0;     // detection + natural-map rows (part of solve_seconds)
+  // Parts of solve_seconds: the particles' stress updates and internal
+  // forces, the Jacobian matrices' assembly, the linear solves (with their
+  // factorizations and, in 3D, the operator products, also given alone).
+  double material_seconds = 0, assembly_seconds = 0, linear_seconds = 0, operator_seconds = 0;
 };
 
 // How a run ended: at time.end, on SIGINT/SIGTERM (after a step, with a
@@ -46,6 +50,7 @@ struct RunSummary {
   long max_step_newton_iterations = 0;  // over the accepted steps (totals include failed attempts)
   double wall_seconds = 0, transfer_seconds = 0, solve_seconds = 0;
   double contact_seconds = 0;     // part of solve_seconds: candidates + contact rows
+  double material_seconds = 0, assembly_seconds = 0, linear_seconds = 0, operator_seconds = 0;  // StepReport
   long contact_points = 0;        // summed over the accepted steps
   double max_unbalance = 0;       // largest U of an accepted step (docs/solver.md#convergence)
   double energy_balance_error = 0;  // J: K + G + E + the dissipated terms - (K0 + G0 + E0) (docs/energy.md)

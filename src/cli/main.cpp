@@ -112,7 +112,9 @@ void print_summary(const talus::CaseConfig& config, const talus::RunSummary& s, 
               << ", \"linear_iterations\": " << s.linear_iterations << ", \"outputs\": " << s.outputs
               << ", \"wall_seconds\": " << s.wall_seconds
               << ", \"transfer_seconds\": " << s.transfer_seconds << ", \"solve_seconds\": " << s.solve_seconds
-              << ", \"contact_seconds\": " << s.contact_seconds << ", \"contact_points\": " << s.contact_points
+              << ", \"contact_seconds\": " << s.contact_seconds << ", \"material_seconds\": " << s.material_seconds
+              << ", \"assembly_seconds\": " << s.assembly_seconds << ", \"linear_solve_seconds\": " << s.linear_seconds
+              << ", \"operator_seconds\": " << s.operator_seconds << ", \"contact_points\": " << s.contact_points
               << ", \"max_unbalance\": " << s.max_unbalance << ", \"energy_balance_error\": " << s.energy_balance_error << ", \"structure_builds\": " << s.structure_builds
               << ", \"equilibrium_steps\": " << s.equilibrium_steps
               << ", \"equilibrium_newton_iterations\": " << s.equilibrium_newton_iterations

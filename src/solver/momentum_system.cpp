@@ -82,6 +82,7 @@ bool MomentumSystem<dim>::evaluated_at(Vec v) const {
 
 template <int dim>
 void MomentumSystem<dim>::evaluate_particles(Vec v) {
+  const auto t0 = std::chrono::steady_clock::now();
   active_.to_grid(v, velocity_);
   const int n = grid_.ghosted_count();
   for (int i = 0; i < n; ++i)
@@ -156,6 +157,7 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
   }
   if (!evaluated_at_) TALUS_PETSC(VecDuplicate(v, &evaluated_at_));
   TALUS_PETSC(VecCopy(v, evaluated_at_));
+  material_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
 template <int dim>
@@ -263,6 +265,7 @@ void MomentumSystem<dim>::apply_jacobian(Vec x, Vec y) {
   // about 20 dim^2 multiply-adds against 3 dim^2 n_nodes^2 for its share of
   // the assembled matrix: in 3D (27 nodes) the matrix costs as much as 25
   // products (docs/solver.md#the-jacobian-as-an-operator).
+  const auto t0 = std::chrono::steady_clock::now();
   active_.to_grid(x, operator_x_);
   const int n = grid_.ghosted_count();
   for (int i = 0; i < n; ++i)
@@ -316,6 +319,7 @@ void MomentumSystem<dim>::apply_jacobian(Vec x, Vec y) {
   }
   TALUS_PETSC(VecRestoreArrayRead(x, &in));
   TALUS_PETSC(VecRestoreArray(y, &out));
+  operator_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
 template <int dim>
@@ -360,6 +364,7 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
   // point), or none without contact.
   const std::vector<double> left = any_contacts_ ? contact_row_factors(v) : std::vector<double>();
   if (!evaluated_at(v)) evaluate_particles(v);
+  const auto t_assembly = std::chrono::steady_clock::now();
   TALUS_PETSC(MatZeroEntries(J));
   // Particle contributions are first summed per (point, neighbour) block on
   // this rank, then handed to PETSc one block row at a time: a point is shared
@@ -493,6 +498,7 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
   }
   TALUS_PETSC(MatAssemblyBegin(J, MAT_FINAL_ASSEMBLY));
   TALUS_PETSC(MatAssemblyEnd(J, MAT_FINAL_ASSEMBLY));
+  assembly_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t_assembly).count();
 }
 
 template <int dim>

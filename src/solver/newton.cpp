@@ -2,6 +2,7 @@
 #include "talus/solver/petsc_options.hpp"
 
 #include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -120,8 +121,16 @@ PetscErrorCode physical_convergence(SNES snes, PetscInt it, PetscReal, PetscReal
 // a full step along it can land near another solution) and the step is
 // solved again with fresh factors at every iterate (NewtonSolver::solve).
 template <int dim>
+PetscErrorCode start_linear_solve(KSP, Vec, Vec, void* ctx) {
+  static_cast<typename NewtonSolver<dim>::CallbackContext*>(ctx)->linear_start = std::chrono::steady_clock::now();
+  return 0;
+}
+
+template <int dim>
 PetscErrorCode record_linear_solve(KSP ksp, Vec, Vec, void* ctx) {
   auto* context = static_cast<typename NewtonSolver<dim>::CallbackContext*>(ctx);
+  context->linear_seconds +=
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - context->linear_start).count();
   KSPConvergedReason reason;
   PetscErrorCode ierr = KSPGetConvergedReason(ksp, &reason);
   if (ierr) return ierr;
@@ -230,6 +239,7 @@ static NewtonReport retried(const NewtonReport& first, NewtonReport retry) {
   retry.linear_iterations += first.linear_iterations;
   retry.factorizations += first.factorizations;
   retry.jacobian_matrices += first.jacobian_matrices;
+  retry.linear_seconds += first.linear_seconds;
   retry.structure_built = first.structure_built;
   return retry;
 }
@@ -550,6 +560,7 @@ NewtonReport NewtonSolver<dim>::run_snes(MomentumSystem<dim>& system, Start star
   context_.linear_failures = &linear_failures_;
   const long factorizations_before = factorization_.factorizations;
   const long assembled_before = context_.assembled;
+  const double linear_seconds_before = context_.linear_seconds;
   TALUS_PETSC(SNESSetFunction(snes_, F_, form_residual<dim>, &context_));
   TALUS_PETSC(SNESSetJacobian(snes_, context_.jacobian_operator ? J_operator_ : J_, J_, form_jacobian<dim>, &context_));
   std::vector<PetscReal> history(128);
@@ -560,6 +571,7 @@ NewtonReport NewtonSolver<dim>::run_snes(MomentumSystem<dim>& system, Start star
   linear_failures_ = 0;
   scale_.stagnated = false;
   scale_.history.clear();
+  TALUS_PETSC(KSPSetPreSolve(ksp, start_linear_solve<dim>, &context_));
   TALUS_PETSC(KSPSetPostSolve(ksp, record_linear_solve<dim>, &context_));
   scale_.linear_failures = &linear_failures_;
   const long resolves_before = factorization_.resolves;
@@ -596,6 +608,7 @@ NewtonReport NewtonSolver<dim>::run_snes(MomentumSystem<dim>& system, Start star
   report.linear_failures = linear_failures_;
   report.factorizations = factorization_.factorizations - factorizations_before;
   report.jacobian_matrices = context_.assembled - assembled_before;
+  report.linear_seconds = context_.linear_seconds - linear_seconds_before;
   report.fresh_resolves = factorization_.resolves - resolves_before;
   if (!report.converged && scale_.stagnated) report.reason = "STAGNATED";
   if (!report.converged && linear_failures_ > 0) report.reason = SNESConvergedReasons[SNES_DIVERGED_LINEAR_SOLVE];

@@ -93,6 +93,12 @@ class MomentumSystem {
                          const std::vector<ContactPoint<dim>>& contacts, const std::vector<Vector<dim>>& impulses) const;
   const std::vector<NaturalMap<dim>>& contact_maps() const { return contact_map_; }
   double contact_seconds() const { return contact_seconds_; }  // time spent in the contact rows
+  // Time in the particles' stress updates and internal forces (every
+  // residual), in assembling Jacobian matrices and in operator products
+  // (apply_jacobian, part of the linear solves), s.
+  double material_seconds() const { return material_seconds_; }
+  double assembly_seconds() const { return assembly_seconds_; }
+  double operator_seconds() const { return operator_seconds_; }
 
  private:
   void evaluate_particles(Vec v);
@@ -141,6 +147,7 @@ class MomentumSystem {
   std::vector<Matrix<dim>> contact_left_, contact_right_;  // P_i, Q_i (contact_row_factors)
   Vec contact_at_ = nullptr;  // the v of the last contact evaluation
   double contact_seconds_ = 0.0;
+  double material_seconds_ = 0.0, assembly_seconds_ = 0.0, operator_seconds_ = 0.0;
   int any_contacts_ = 0;  // on any rank
 };
 

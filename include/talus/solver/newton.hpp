@@ -26,6 +26,7 @@
 // factorization.
 #include <petscsnes.h>
 
+#include <chrono>
 #include <string>
 #include <vector>
 
@@ -45,7 +46,8 @@ struct NewtonReport {
   bool direct_fallback = false;        // a linear solve failed and the step was solved again by LU
   long linear_failures = 0;            // linear solves that did not converge (the step is judged on U alone)
   long factorizations = 0;             // numeric LU factorizations in this step (reused-factorization mode)
-  long jacobian_matrices = 0;          // Jacobian matrices assembled (with the operator: only for factors)
+  long jacobian_matrices = 0;
+  double linear_seconds = 0.0;         // in KSPSolve (preconditioner set-up, factorizations and products included)          // Jacobian matrices assembled (with the operator: only for factors)
   long fresh_resolves = 0;             // Newton systems solved again on fresh factors after stale ones failed
   bool predictor_retry = false;        // Newton failed from one predictor and the step was solved from the other
 };
@@ -136,6 +138,8 @@ class NewtonSolver {
     // its factors are computed (docs/solver.md#the-jacobian-as-an-operator).
     bool jacobian_operator = false;
     long assembled = 0;  // Jacobian matrices assembled (since construction)
+    double linear_seconds = 0.0;  // in KSPSolve, since construction
+    std::chrono::steady_clock::time_point linear_start;
   };
 
  private:
