@@ -34,6 +34,13 @@ template <int dim>
 PetscErrorCode form_jacobian(SNES snes, Vec v, Mat J, Mat P, void* ctx) {
   auto* context = static_cast<typename NewtonSolver<dim>::CallbackContext*>(ctx);
   auto& factorization = *context->factorization;
+  // The linear solve follows this callback: its time runs from here to
+  // record_linear_solve (not a KSP pre-solve hook: SNES's inexact Newton
+  // sets its tolerance in that hook, and there is only one).
+  struct StampAtReturn {
+    typename NewtonSolver<dim>::CallbackContext* context;
+    ~StampAtReturn() { context->linear_start = std::chrono::steady_clock::now(); }
+  } stamp{context};
   if (!context->jacobian_operator) {
     PetscErrorCode ierr = petsc_callback([&] { context->system->jacobian(v, J); });
     if (ierr) return ierr;
@@ -121,12 +128,6 @@ PetscErrorCode physical_convergence(SNES snes, PetscInt it, PetscReal, PetscReal
 // a full step along it can land near another solution) and the step is
 // solved again with fresh factors at every iterate (NewtonSolver::solve).
 template <int dim>
-PetscErrorCode start_linear_solve(KSP, Vec, Vec, void* ctx) {
-  static_cast<typename NewtonSolver<dim>::CallbackContext*>(ctx)->linear_start = std::chrono::steady_clock::now();
-  return 0;
-}
-
-template <int dim>
 PetscErrorCode record_linear_solve(KSP ksp, Vec, Vec, void* ctx) {
   auto* context = static_cast<typename NewtonSolver<dim>::CallbackContext*>(ctx);
   context->linear_seconds +=
@@ -180,6 +181,7 @@ PetscErrorCode resolve_on_fresh_factors(SNESLineSearch line_search, Vec x, Vec d
   PetscCall(KSPSetReusePreconditioner(ksp, PETSC_FALSE));
   factorization.factor_now();
   ++factorization.resolves;
+  context->linear_start = std::chrono::steady_clock::now();
   PetscCall(KSPSolve(ksp, F, direction));  // counted in KSPGetTotalIterations
   // Keep these factors for the next Jacobians (SNES sets the flag again at
   // every Jacobian from its lag; -1 means reuse).
@@ -571,7 +573,6 @@ NewtonReport NewtonSolver<dim>::run_snes(MomentumSystem<dim>& system, Start star
   linear_failures_ = 0;
   scale_.stagnated = false;
   scale_.history.clear();
-  TALUS_PETSC(KSPSetPreSolve(ksp, start_linear_solve<dim>, &context_));
   TALUS_PETSC(KSPSetPostSolve(ksp, record_linear_solve<dim>, &context_));
   scale_.linear_failures = &linear_failures_;
   const long resolves_before = factorization_.resolves;
