@@ -330,6 +330,7 @@ RunSummary Simulation<dim>::run_steps(std::ostream* progress, const ProgressOpti
     summary.structure_builds += r.newton.structure_built;
     summary.direct_fallbacks += r.newton.direct_fallback;
     summary.factorizations += r.newton.factorizations;
+    summary.jacobian_matrices += r.newton.jacobian_matrices;
     if (!r.converged) {
       ++summary.cutbacks;
       const double h = control.failed(h_try);

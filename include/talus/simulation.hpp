@@ -57,6 +57,7 @@ struct RunSummary {
   long structure_builds = 0;      // steps whose matrix and preconditioner structure was built anew
   long direct_fallbacks = 0;      // steps solved again by LU after a failed linear solve
   long factorizations = 0;        // numeric LU factorizations with reused factors (docs/solver.md#reused-factorizations)
+  long jacobian_matrices = 0;     // Jacobian matrices assembled (docs/solver.md#the-jacobian-as-an-operator)
   // Balanced ranks (docs/parallel.md): grid re-partitions during the run, the
   // largest max/mean particles per rank at the start of a step, and the
   // particles per rank at the end.
