@@ -1,0 +1,116 @@
+// The solver options checked before a run writes anything
+// (NewtonSolver::options_read_by_no_configuration, docs/command_line.md#petsc-options):
+// a throwaway solver configured in a copy of the options database.
+#include <cstring>
+#include <exception>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "talus/solver/newton.hpp"
+
+namespace talus {
+
+namespace {
+
+// The first PETSc error message of a failed call (PETSc's own handler would
+// print a trace; this one keeps the message for an input error).
+PetscErrorCode keep_message(MPI_Comm, int, const char*, const char*, PetscErrorCode code, PetscErrorType type,
+                            const char* message, void* context) {
+  auto* kept = static_cast<std::string*>(context);
+  if (type == PETSC_ERROR_INITIAL && kept->empty() && message) *kept = message;
+  return code;
+}
+
+// The -talus_ options of the global database not read so far, as name/value pairs.
+std::vector<std::pair<std::string, std::string>> unread_talus_options() {
+  PetscInt count = 0;
+  char** names = nullptr;
+  char** values = nullptr;
+  TALUS_PETSC(PetscOptionsLeftGet(nullptr, &count, &names, &values));
+  std::vector<std::pair<std::string, std::string>> left;
+  for (PetscInt k = 0; k < count; ++k)
+    if (std::strncmp(names[k], "talus_", 6) == 0) left.emplace_back(names[k], values[k] ? values[k] : "");
+  TALUS_PETSC(PetscOptionsLeftRestore(nullptr, &count, &names, &values));
+  return left;
+}
+
+// Read by PETSc only when the solver is set up on a matrix, when it solves
+// or when it is needed: the sub-solvers of block Jacobi, ASM and multigrid,
+// field splits, the viewers and reasons printed after a solve, the Jacobian
+// test, the LU fallback after a failed linear solve (NewtonSolver::solve).
+bool read_at_setup(const std::string& name) {
+  for (const char* part : {"sub_", "mg_levels_", "mg_coarse_", "fieldsplit_", "talus_fallback_", "view",
+                           "converged_reason", "test_"})
+    if (name.find(part) != std::string::npos) return true;
+  return false;
+}
+
+}  // namespace
+
+template <int dim>
+std::vector<std::string> NewtonSolver<dim>::options_read_by_no_configuration(MPI_Comm comm, PetscInt direct_limit) {
+  const auto given = unread_talus_options();
+  if (given.empty()) return {};
+  // Configure a throwaway solver, below and above the direct limit, in a
+  // database that holds `options` only; returns the options it left unread,
+  // or throws with PETSc's message if PETSc refused a value.
+  auto rehearse = [&](const std::vector<std::pair<std::string, std::string>>& options, std::string* refused) {
+    PetscOptions copy = nullptr;
+    TALUS_PETSC(PetscOptionsCreate(&copy));
+    for (const auto& [name, value] : options)
+      TALUS_PETSC(PetscOptionsSetValue(copy, ("-" + name).c_str(), value.empty() ? nullptr : value.c_str()));
+    TALUS_PETSC(PetscOptionsPush(copy));
+    TALUS_PETSC(PetscPushErrorHandler(keep_message, refused));
+    std::vector<std::pair<std::string, std::string>> left;
+    bool failed = false;
+    std::exception_ptr other;
+    try {
+      NewtonSolver<dim> rehearsal(comm, direct_limit, 1.0);
+      for (const PetscInt unknowns : {PetscInt(dim), direct_limit + 1}) {
+        TALUS_PETSC(SNESCreate(comm, &rehearsal.snes_));
+        rehearsal.configure(unknowns);
+        TALUS_PETSC(SNESDestroy(&rehearsal.snes_));
+      }
+      Mat matrix = nullptr;
+      TALUS_PETSC(MatCreate(comm, &matrix));
+      TALUS_PETSC(MatSetSizes(matrix, PETSC_DECIDE, PETSC_DECIDE, dim, dim));
+      TALUS_PETSC(MatSetOptionsPrefix(matrix, "talus_"));
+      TALUS_PETSC(MatSetFromOptions(matrix));
+      TALUS_PETSC(MatDestroy(&matrix));
+      left = unread_talus_options();
+    } catch (const PetscFailure&) {
+      failed = true;
+    } catch (...) {
+      other = std::current_exception();  // an InputError of talus's own options: after clean-up
+    }
+    PetscPopErrorHandler();
+    PetscOptionsPop();
+    PetscOptionsDestroy(&copy);
+    if (other) std::rethrow_exception(other);
+    if (failed && refused->empty()) *refused = "refused";
+    return left;
+  };
+  std::string refused;
+  const auto left = rehearse(given, &refused);
+  if (!refused.empty()) {
+    // Which option: each one alone.
+    for (const auto& option : given) {
+      std::string why;
+      rehearse({option}, &why);
+      if (!why.empty())
+        throw InputError("PETSc option -" + option.first + (option.second.empty() ? "" : " " + option.second) +
+                         ": PETSc does not accept it (" + why + ")");
+    }
+    throw InputError("PETSc options: PETSc does not accept them together (" + refused + ")");
+  }
+  std::vector<std::string> unread;
+  for (const auto& [name, value] : left)
+    if (!read_at_setup(name)) unread.push_back(name);
+  return unread;
+}
+
+template std::vector<std::string> NewtonSolver<2>::options_read_by_no_configuration(MPI_Comm, PetscInt);
+template std::vector<std::string> NewtonSolver<3>::options_read_by_no_configuration(MPI_Comm, PetscInt);
+
+}  // namespace talus
