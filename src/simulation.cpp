@@ -166,12 +166,14 @@ StepReport Simulation<dim>::advance(double h) {
   report.h = h;
   const auto t0 = std::chrono::steady_clock::now();
 
-  // 1. Locate particles: shape-function stencils at x_p^n.
+  // 1. Locate particles: shape-function stencils at x_p^n (in their body's
+  // velocity field when bodies are in contact with each other).
+  const ContactConfig& contact = config_.contact;
   std::vector<Stencil<dim>> stencils;
-  compute_stencils(*grid_, *particles_, stencils);
+  compute_stencils(*grid_, *particles_, stencils, contact.field_count > 1 ? contact.body_field : std::vector<int>());
   // 2. P2G: nodal mass and momentum (and v^n).
   GridFields<dim> fields;
-  particles_to_grid(*grid_, *particles_, stencils, config_.transfer.scheme, fields);
+  particles_to_grid(*grid_, *particles_, stencils, config_.transfer.scheme, fields, contact.field_count);
   report.transfer_seconds = seconds_since(t0);
 
   const auto t1 = std::chrono::steady_clock::now();
@@ -180,10 +182,13 @@ StepReport Simulation<dim>::advance(double h) {
   active.build(*grid_, fields, mass_threshold_, config_.faces);
   report.active_points = active.global_count();
   last_system_size_ = active.global_count() * dim;
-  // 4. Contact candidates: active points whose predicted gap to an obstacle is closed.
+  // 4. Contact candidates: active points whose predicted gap to an obstacle
+  // is closed, and points where two bodies are predicted to touch.
   const auto tc = std::chrono::steady_clock::now();
   std::vector<ContactPoint<dim>> contacts =
-      find_contact_candidates(*grid_, *particles_, stencils, fields, active, obstacles_, time_, h, config_.contact.gap_prediction);
+      find_contact_candidates(*grid_, *particles_, stencils, fields, active, obstacles_, time_, h, contact.gap_prediction);
+  std::vector<BodyContactPoint<dim>> body_contacts =
+      find_body_contacts(*grid_, *particles_, stencils, fields, active, contact, contacts, h);
   report.contact_seconds = seconds_since(tc);
   if (equilibrium_stage_ && config_.equilibrium.stick) {
     // `contact: stick`: the bodies are held where they touch an obstacle or a
@@ -201,8 +206,12 @@ StepReport Simulation<dim>::advance(double h) {
   // from rest (zero acceleration), not from free fall over its long step.
   fields.last_acceleration =
       equilibrium_stage_ ? std::vector<double>(fields.velocity.size(), 0.0) : last_acceleration_;
+  {
+    PetscInt local = static_cast<PetscInt>(body_contacts.size());
+    MPI_Allreduce(&local, &report.body_contact_points, 1, MPIU_INT, MPI_SUM, comm_);
+  }
   MomentumSystem<dim> system(*grid_, *particles_, stencils, fields, active, materials_, gravity_, h, theta,
-                             std::move(contacts));
+                             std::move(contacts), std::move(body_contacts));
   if (active.global_count() > 0) {
     report.newton = newton_->solve(system);
   } else {

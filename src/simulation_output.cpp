@@ -37,10 +37,11 @@ void Simulation<dim>::record_grid_points(const GridFields<dim>& fields, const st
   auto& v = cloud.arrays[1].values;
   auto& force = cloud.arrays[2].values;
   auto& active = cloud.arrays[3].values;
-  const int n = grid_->ghosted_count();
-  std::vector<int> slot(static_cast<std::size_t>(n), -1);  // ghosted index -> point of the cloud
+  // One cloud point per node: with bodies in contact, one per velocity field at a grid point.
+  const int points = grid_->ghosted_count(), n = static_cast<int>(fields.mass.size());
+  std::vector<int> slot(static_cast<std::size_t>(n), -1);  // ghosted node -> point of the cloud
   for (int i = 0; i < n; ++i) {
-    const auto ijk = grid_->global_index(i);
+    const auto ijk = grid_->global_index(i % points);
     if (!(fields.mass[i] > 0.0) || !grid_->is_owned(ijk)) continue;
     slot[i] = static_cast<int>(cloud.points.size());
     const Vector<dim> x = grid_->point_position(ijk);

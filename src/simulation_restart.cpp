@@ -54,6 +54,7 @@ void Simulation<dim>::restart(const std::string& checkpoint_path) {
   for (const Material* m : materials_) expected.density.push_back(m->density());
   for (const BodyConfig& b : config_.bodies) expected.body_material.push_back(b.material);
   expected.obstacles = static_cast<int>(obstacles_.size());
+  expected.velocity_fields = config_.contact.field_count;
   resume_ = std::make_unique<RunState>(read_checkpoint(checkpoint_path, *particles_, *grid_, expected, comm_));
   time_ = resume_->time;
   if (!restore) {
@@ -84,12 +85,15 @@ template <int dim>
 void Simulation<dim>::store_last_acceleration(RunState& state) const {
   state.accelerated_points.clear();
   state.point_acceleration.clear();
-  const int n = static_cast<int>(last_acceleration_.size()) / dim;
+  const int n = static_cast<int>(last_acceleration_.size()) / dim, points = grid_->ghosted_count();
+  long long grid_points = 1;
+  for (int a = 0; a < dim; ++a) grid_points *= grid_->points()[a];
   for (int i = 0; i < n; ++i) {
     if (!std::isfinite(last_acceleration_[dim * i])) continue;
-    const auto ijk = grid_->global_index(i);
-    long long index = 0;  // x fastest, as the DMDA's natural ordering
+    const auto ijk = grid_->global_index(i % points);
+    long long index = 0;  // x fastest, as the DMDA's natural ordering, field by field
     for (int a = dim - 1; a >= 0; --a) index = index * grid_->points()[a] + ijk[a];
+    index += static_cast<long long>(i / points) * grid_points;
     state.accelerated_points.push_back(index);
     for (int a = 0; a < dim; ++a) state.point_acceleration.push_back(last_acceleration_[dim * i + a]);
   }
@@ -99,17 +103,22 @@ template <int dim>
 void Simulation<dim>::restore_last_acceleration(const RunState& state) {
   last_acceleration_.clear();
   if (state.accelerated_points.empty()) return;
-  last_acceleration_.assign(static_cast<std::size_t>(grid_->ghosted_count()) * dim,
+  const int points = grid_->ghosted_count();
+  long long grid_points = 1;
+  for (int a = 0; a < dim; ++a) grid_points *= grid_->points()[a];
+  last_acceleration_.assign(static_cast<std::size_t>(points) * config_.contact.field_count * dim,
                             std::numeric_limits<double>::quiet_NaN());
   for (std::size_t r = 0; r < state.accelerated_points.size(); ++r) {
-    long long index = state.accelerated_points[r];
+    long long index = state.accelerated_points[r] % grid_points;
+    const long long field = state.accelerated_points[r] / grid_points;
+    if (field >= config_.contact.field_count) continue;
     std::array<int, dim> ijk;
     for (int a = 0; a < dim; ++a) {
       ijk[a] = static_cast<int>(index % grid_->points()[a]);
       index /= grid_->points()[a];
     }
     if (!grid_->is_owned(ijk)) continue;
-    const int i = grid_->local_index(ijk);
+    const std::size_t i = static_cast<std::size_t>(field) * points + grid_->local_index(ijk);
     for (int a = 0; a < dim; ++a) last_acceleration_[dim * i + a] = state.point_acceleration[dim * r + a];
   }
 }

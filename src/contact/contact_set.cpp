@@ -13,45 +13,68 @@ namespace {
 // Per ghosted grid point: min over the particles in its support (all ranks)
 // of g(x_p) - l_p / 2; +huge where no particle reaches. The minimum over
 // ranks is a maximum of -g.
-template <int dim>
-std::vector<double> material_gaps(const Grid<dim>& grid, const Particles<dim>& particles,
-                                  const std::vector<Stencil<dim>>& stencils, const Obstacle<dim>& obstacle,
-                                  double time) {
-  constexpr double none = 1e300;
+constexpr double none = 1e300;
+
+// The largest value per ghosted node over all ranks: `value(p, k)` for every
+// particle p and stencil entry k with a non-zero weight (-none where no
+// particle reaches), one DMDA pass per velocity field.
+template <int dim, class Value>
+std::vector<double> node_maximum(const Grid<dim>& grid, const std::vector<Stencil<dim>>& stencils,
+                                 const GridFields<dim>& fields, const Value& value) {
+  const int points = grid.ghosted_count();
+  std::vector<double> out(static_cast<std::size_t>(points) * fields.field_count, -none);
   DM da = grid.dm();
   Vec local, global;
   TALUS_PETSC(DMGetLocalVector(da, &local));
   TALUS_PETSC(DMGetGlobalVector(da, &global));
-  TALUS_PETSC(VecSet(local, -none));
-  TALUS_PETSC(VecSet(global, -none));
-  {
-    PetscScalar* a;
-    TALUS_PETSC(VecGetArray(local, &a));
-    FieldView<PetscReal> x(particles.swarm(), field::position), v0(particles.swarm(), field::initial_volume);
-    for (std::size_t p = 0; p < stencils.size(); ++p) {
-      const double size = std::pow(v0[p], 1.0 / dim);
-      const double g = obstacle.gap(Eigen::Map<const Vector<dim>>(x.data() + dim * p), time).gap - 0.5 * size;
-      const Stencil<dim>& st = stencils[p];
-      for (int k = 0; k < st.count; ++k)
-        if (st.weight[k] > 0.0) a[st.local[k]] = std::max(a[st.local[k]], -g);
-    }
-    TALUS_PETSC(VecRestoreArray(local, &a));
-  }
   // DMLocalToGlobal knows only ADD and INSERT; the DMDA's own scatter, run
   // in reverse, takes MAX_VALUES.
   VecScatter global_to_local;
   TALUS_PETSC(DMDAGetScatter(da, &global_to_local, nullptr));
-  TALUS_PETSC(VecScatterBegin(global_to_local, local, global, MAX_VALUES, SCATTER_REVERSE));
-  TALUS_PETSC(VecScatterEnd(global_to_local, local, global, MAX_VALUES, SCATTER_REVERSE));
-  TALUS_PETSC(DMGlobalToLocalBegin(da, global, INSERT_VALUES, local));
-  TALUS_PETSC(DMGlobalToLocalEnd(da, global, INSERT_VALUES, local));
-  std::vector<double> gaps(grid.ghosted_count());
-  const PetscScalar* a;
-  TALUS_PETSC(VecGetArrayRead(local, &a));
-  for (std::size_t i = 0; i < gaps.size(); ++i) gaps[i] = -a[i];
-  TALUS_PETSC(VecRestoreArrayRead(local, &a));
+  for (int field = 0; field < fields.field_count; ++field) {
+    const int offset = field * points;
+    TALUS_PETSC(VecSet(local, -none));
+    TALUS_PETSC(VecSet(global, -none));
+    PetscScalar* a;
+    TALUS_PETSC(VecGetArray(local, &a));
+    for (std::size_t p = 0; p < stencils.size(); ++p) {
+      const Stencil<dim>& st = stencils[p];
+      if (st.local[0] / points != field) continue;
+      for (int k = 0; k < st.count; ++k)
+        if (st.weight[k] > 0.0) {
+          double& m = a[st.local[k] - offset];
+          m = std::max(m, value(p, k));
+        }
+    }
+    TALUS_PETSC(VecRestoreArray(local, &a));
+    TALUS_PETSC(VecScatterBegin(global_to_local, local, global, MAX_VALUES, SCATTER_REVERSE));
+    TALUS_PETSC(VecScatterEnd(global_to_local, local, global, MAX_VALUES, SCATTER_REVERSE));
+    TALUS_PETSC(DMGlobalToLocalBegin(da, global, INSERT_VALUES, local));
+    TALUS_PETSC(DMGlobalToLocalEnd(da, global, INSERT_VALUES, local));
+    const PetscScalar* b;
+    TALUS_PETSC(VecGetArrayRead(local, &b));
+    std::copy(b, b + points, out.begin() + offset);
+    TALUS_PETSC(VecRestoreArrayRead(local, &b));
+  }
   TALUS_PETSC(DMRestoreLocalVector(da, &local));
   TALUS_PETSC(DMRestoreGlobalVector(da, &global));
+  return out;
+}
+
+// Per ghosted node: min over the particles of its field in its support (all
+// ranks) of g(x_p) - l_p / 2; +huge where no particle reaches.
+template <int dim>
+std::vector<double> material_gaps(const Grid<dim>& grid, const Particles<dim>& particles,
+                                  const std::vector<Stencil<dim>>& stencils, const GridFields<dim>& fields,
+                                  const Obstacle<dim>& obstacle, double time) {
+  FieldView<PetscReal> x(particles.swarm(), field::position), v0(particles.swarm(), field::initial_volume);
+  std::vector<double> particle_gap(stencils.size());
+  for (std::size_t p = 0; p < stencils.size(); ++p)
+    particle_gap[p] =
+        obstacle.gap(Eigen::Map<const Vector<dim>>(x.data() + dim * p), time).gap - 0.5 * std::pow(v0[p], 1.0 / dim);
+  std::vector<double> gaps =
+      node_maximum(grid, stencils, fields, [&](std::size_t p, int) { return -particle_gap[p]; });
+  for (double& g : gaps) g = -g;
   return gaps;
 }
 
@@ -66,7 +89,7 @@ std::vector<ContactPoint<dim>> find_contact_candidates(const Grid<dim>& grid, co
   std::vector<ContactPoint<dim>> contacts;
   if (obstacles.empty()) return contacts;
   std::vector<std::vector<double>> gaps;
-  for (const Obstacle<dim>& o : obstacles) gaps.push_back(material_gaps(grid, particles, stencils, o, time));
+  for (const Obstacle<dim>& o : obstacles) gaps.push_back(material_gaps(grid, particles, stencils, fields, o, time));
   // A point on a grid-aligned obstacle face has gap 0 up to round-off.
   const double point_tolerance = 1e-9 * grid.cell_size();
   const auto& owned = active.owned_points();
@@ -79,7 +102,7 @@ std::vector<ContactPoint<dim>> find_contact_candidates(const Grid<dim>& grid, co
       constrained += !free[c];
     }
     if (constrained == dim) continue;
-    const Vector<dim> x = grid.point_position(grid.global_index(i));
+    const Vector<dim> x = grid.point_position(grid.global_index(fields.point_of(i)));
     const Vector<dim> v = Eigen::Map<const Vector<dim>>(fields.velocity.data() + static_cast<std::size_t>(dim) * i);
     double best = std::numeric_limits<double>::infinity();
     ContactPoint<dim> cp;
@@ -120,6 +143,175 @@ std::vector<ContactPoint<dim>> find_contact_candidates(const Grid<dim>& grid, co
   }
   return contacts;
 }
+
+namespace {
+
+// sum over field f's particles of V_p grad N_i(x_p) at every ghosted node
+// (all ranks), dim per node: along the body's outward normal at its surface.
+template <int dim>
+std::vector<double> volume_gradients(const Grid<dim>& grid, const Particles<dim>& particles,
+                                   const std::vector<Stencil<dim>>& stencils, const GridFields<dim>& fields) {
+  constexpr int bs = dim + 1;  // the (m, m v) DMDA, its first dim slots used
+  const int points = grid.ghosted_count();
+  std::vector<double> out(static_cast<std::size_t>(points) * fields.field_count * dim, 0.0);
+  DM da = grid.mass_momentum_dm();
+  Vec local, global;
+  TALUS_PETSC(DMGetLocalVector(da, &local));
+  TALUS_PETSC(DMGetGlobalVector(da, &global));
+  // The particle's current volume V0 det F.
+  FieldView<PetscReal> v0(particles.swarm(), field::initial_volume), F(particles.swarm(), field::deformation_gradient);
+  std::vector<double> m(stencils.size());
+  for (std::size_t p = 0; p < stencils.size(); ++p)
+    m[p] = v0[p] * Eigen::Map<const Eigen::Matrix<double, dim, dim, Eigen::RowMajor>>(F.data() + dim * dim * p).determinant();
+  for (int field = 0; field < fields.field_count; ++field) {
+    const int offset = field * points;
+    TALUS_PETSC(VecZeroEntries(local));
+    TALUS_PETSC(VecZeroEntries(global));
+    PetscScalar* a;
+    TALUS_PETSC(VecGetArray(local, &a));
+    for (std::size_t p = 0; p < stencils.size(); ++p) {
+      const Stencil<dim>& st = stencils[p];
+      if (st.local[0] / points != field) continue;
+      for (int k = 0; k < st.count; ++k)
+        for (int c = 0; c < dim; ++c) a[bs * (st.local[k] - offset) + c] += m[p] * st.gradient[k][c];
+    }
+    TALUS_PETSC(VecRestoreArray(local, &a));
+    TALUS_PETSC(DMLocalToGlobalBegin(da, local, ADD_VALUES, global));
+    TALUS_PETSC(DMLocalToGlobalEnd(da, local, ADD_VALUES, global));
+    TALUS_PETSC(DMGlobalToLocalBegin(da, global, INSERT_VALUES, local));
+    TALUS_PETSC(DMGlobalToLocalEnd(da, global, INSERT_VALUES, local));
+    const PetscScalar* b;
+    TALUS_PETSC(VecGetArrayRead(local, &b));
+    for (int i = 0; i < points; ++i)
+      for (int c = 0; c < dim; ++c) out[static_cast<std::size_t>(dim) * (offset + i) + c] = b[bs * i + c];
+    TALUS_PETSC(VecRestoreArrayRead(local, &b));
+  }
+  TALUS_PETSC(DMRestoreLocalVector(da, &local));
+  TALUS_PETSC(DMRestoreGlobalVector(da, &global));
+  return out;
+}
+
+}  // namespace
+
+// The largest angle between one body's outward direction and the other's
+// inward one at a contact point (find_body_contacts).
+constexpr double opposed_angle = 30.0 * 3.14159265358979323846 / 180.0;
+
+template <int dim>
+std::vector<BodyContactPoint<dim>> find_body_contacts(const Grid<dim>& grid, const Particles<dim>& particles,
+                                                      const std::vector<Stencil<dim>>& stencils,
+                                                      const GridFields<dim>& fields, const ActiveSet<dim>& active,
+                                                      const ContactConfig& config,
+                                                      const std::vector<ContactPoint<dim>>& obstacle_contacts,
+                                                      double h) {
+  std::vector<BodyContactPoint<dim>> contacts;
+  if (fields.field_count < 2) return contacts;
+  const int points = grid.ghosted_count();
+  // The pair at every ghosted point (ghost points too: the gaps below need
+  // the normal wherever a particle's support reaches): the two heaviest
+  // active fields, a the lower-numbered.
+  std::vector<std::array<int, 2>> pair(points, {-1, -1});
+  for (int i = 0; i < points; ++i) {
+    int first = -1, second = -1;
+    for (int f = 0; f < fields.field_count; ++f) {
+      const int node = f * points + i;
+      if (active.compact_index(node) < 0) continue;
+      if (first < 0 || fields.mass[node] > fields.mass[first * points + i])
+        second = first, first = f;
+      else if (second < 0 || fields.mass[node] > fields.mass[second * points + i])
+        second = f;
+    }
+    if (second >= 0) pair[i] = {std::min(first, second), std::max(first, second)};
+  }
+  const std::vector<double> gradient = volume_gradients(grid, particles, stencils, fields);
+  // Each field's volume, all ranks: which body of a pair is the larger.
+  std::vector<double> volume(fields.field_count, 0.0);
+  {
+    std::vector<double> local(fields.field_count, 0.0);
+    FieldView<PetscReal> v0(particles.swarm(), field::initial_volume);
+    for (std::size_t p = 0; p < stencils.size(); ++p) local[stencils[p].local[0] / points] += v0[p];
+    MPI_Allreduce(local.data(), volume.data(), fields.field_count, MPI_DOUBLE, MPI_SUM, grid.comm());
+  }
+  std::vector<Vector<dim>> normal(points, Vector<dim>::Zero());
+  for (int i = 0; i < points; ++i) {
+    if (pair[i][0] < 0) continue;
+    const Eigen::Map<const Vector<dim>> ga(gradient.data() + static_cast<std::size_t>(dim) * (pair[i][0] * points + i)),
+        gb(gradient.data() + static_cast<std::size_t>(dim) * (pair[i][1] * points + i));
+    // sum_p V_p grad N_i(x_p) points out of a body at its surface (N_i grows
+    // as a particle moves towards the point). Two bodies touch where their
+    // outward directions oppose each other; at a block's corner on a flat
+    // base they are 45 degrees apart (the block's is the corner's diagonal):
+    // such points are not contact points (the next row, where the surfaces
+    // oppose, holds the bodies apart). The normal is that of the larger body
+    // of the two, whose surface is the flatter one at the contact (the base
+    // under a block, the slope under a boulder, the debris around a rock):
+    // the smaller body's, or an average, tilts near its edges, and a tilted
+    // normal is a ramp that stops a sliding block or launches it.
+    if (!(ga.norm() > 0.0 && gb.norm() > 0.0)) continue;
+    if (-ga.normalized().dot(gb.normalized()) < std::cos(opposed_angle)) continue;
+    normal[i] = volume[pair[i][0]] >= volume[pair[i][1]] ? Vector<dim>(ga.normalized()) : Vector<dim>(-gb.normalized());
+  }
+  // The bodies' surfaces along the normal: a's front (the largest
+  // x_p . n + l_p / 2 of its particles) and b's back (the smallest
+  // x_q . n - l_q / 2), both as maxima over the particles around the point.
+  FieldView<PetscReal> x(particles.swarm(), field::position), v0(particles.swarm(), field::initial_volume);
+  const auto surface = [&](int side) {
+    return node_maximum(grid, stencils, fields, [&, side](std::size_t p, int k) {
+      const int node = stencils[p].local[k], i = node % points;
+      if (pair[i][side] != node / points || normal[i].isZero(0.0)) return -none;
+      const double along = Eigen::Map<const Vector<dim>>(x.data() + dim * p).dot(normal[i]);
+      // Half the extent of the particle's cube (side l_p) along n.
+      const double half = 0.5 * std::pow(v0[p], 1.0 / dim) * normal[i].template lpNorm<1>();
+      return side == 0 ? along + half : -(along - half);
+    });
+  };
+  const std::vector<double> front = surface(0), back = surface(1);
+
+  std::vector<char> obstacle_node(static_cast<std::size_t>(points) * fields.field_count, 0);
+  for (const ContactPoint<dim>& cp : obstacle_contacts) obstacle_node[cp.point] = 1;
+  PetscInt first = 0;
+  {
+    Vec v = active.create_vector();
+    TALUS_PETSC(VecGetOwnershipRange(v, &first, nullptr));
+    TALUS_PETSC(VecDestroy(&v));
+  }
+  for (const int node : active.owned_points()) {
+    const int i = node % points;
+    if (node / points != pair[i][0] || normal[i].isZero(0.0)) continue;
+    const int a = node, b = pair[i][1] * points + i;
+    if (obstacle_node[a] || obstacle_node[b]) continue;
+    bool constrained = false;
+    for (int c = 0; c < dim; ++c) constrained |= active.constrained(a, c);
+    if (constrained) continue;
+    BodyContactPoint<dim> cp;
+    cp.node_a = a;
+    cp.node_b = b;
+    cp.row_a = dim * (active.compact_index(a) - first / dim);
+    cp.row_b = dim * (active.compact_index(b) - first / dim);
+    cp.normal = normal[i];
+    const double front_a = front[a], back_b = -back[b];
+    cp.gap = back_b - front_a;
+    const Eigen::Map<const Vector<dim>> va(fields.velocity.data() + static_cast<std::size_t>(dim) * a),
+        vb(fields.velocity.data() + static_cast<std::size_t>(dim) * b);
+    cp.start_normal_velocity = -(va - vb).dot(cp.normal);
+    // Touching bodies have gap 0 up to round-off.
+    const double tolerance = 1e-9 * grid.cell_size();
+    if (cp.gap + config.gap_prediction * h * std::min(cp.start_normal_velocity, 0.0) > tolerance) continue;
+    cp.friction = config.field_friction(pair[i][0], pair[i][1]);
+    cp.rho = fields.mass[a] * fields.mass[b] / (fields.mass[a] + fields.mass[b]);
+    contacts.push_back(cp);
+  }
+  return contacts;
+}
+
+template std::vector<BodyContactPoint<2>> find_body_contacts(const Grid<2>&, const Particles<2>&,
+                                                             const std::vector<Stencil<2>>&, const GridFields<2>&,
+                                                             const ActiveSet<2>&, const ContactConfig&,
+                                                             const std::vector<ContactPoint<2>>&, double);
+template std::vector<BodyContactPoint<3>> find_body_contacts(const Grid<3>&, const Particles<3>&,
+                                                             const std::vector<Stencil<3>>&, const GridFields<3>&,
+                                                             const ActiveSet<3>&, const ContactConfig&,
+                                                             const std::vector<ContactPoint<3>>&, double);
 
 template std::vector<ContactPoint<2>> find_contact_candidates(const Grid<2>&, const Particles<2>&,
                                                               const std::vector<Stencil<2>>&, const GridFields<2>&,

@@ -138,7 +138,11 @@ CaseFingerprint case_fingerprint(const YAML::Node& doc, const CaseConfig& c) {
   f.emplace_back("obstacles", doc["obstacles"] ? canonical_list(doc["obstacles"], base, "obstacles",
                                                                 {{"restitution", "0"}, {"velocity", "zeros"}})
                                               : "none");
-  f.emplace_back("contact", "gap_prediction: " + number_text(c.contact.gap_prediction));
+  std::string contact = "gap_prediction: " + number_text(c.contact.gap_prediction);
+  for (const BodyContactPair& p : c.contact.body_pairs)
+    contact += "; bodies " + c.bodies[p.body_a].name + ", " + c.bodies[p.body_b].name + ": friction " +
+               number_text(p.friction);
+  f.emplace_back("contact", contact);
   f.emplace_back("transfer", std::string("scheme: ") + (c.transfer.scheme == TransferScheme::apic ? "apic" : "flip") +
                                  ", flip_blend: " + number_text(c.transfer.flip_blend));
   return f;

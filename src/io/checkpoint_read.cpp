@@ -316,7 +316,7 @@ RunState read_particles(const std::string& path, Particles<dim>& particles, cons
     if (read_rows("point_acceleration", H5T_NATIVE_DOUBLE, dim, sizeof(double), value_bytes) != rows)
       throw InputError(path + ": not a valid talus checkpoint: grid/accelerated_points and grid/point_acceleration "
                        "differ in length");
-    long long points = 1;
+    long long points = expected.velocity_fields;  // one index range per velocity field
     for (int a = 0; a < dim; ++a) points *= grid.points()[a];
     const long long* index = reinterpret_cast<const long long*>(index_bytes.data());
     const double* value = reinterpret_cast<const double*>(value_bytes.data());

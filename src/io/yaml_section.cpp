@@ -199,6 +199,18 @@ std::vector<double> YamlSection::reals(const std::string& key, int length) {
   return out;
 }
 
+std::vector<std::string> YamlSection::texts(const std::string& key, int length) {
+  YAML::Node c = child(key, "a list of texts");
+  if (!c.IsSequence() || static_cast<int>(c.size()) != length)
+    fail_value(key, scalar_text(c), "must be a list of " + std::to_string(length) + " texts");
+  std::vector<std::string> out;
+  for (const auto& e : c) {
+    if (!e.IsScalar()) fail_value(key, scalar_text(c), "entry '" + scalar_text(e) + "' is not a text");
+    out.push_back(e.Scalar());
+  }
+  return out;
+}
+
 std::vector<std::vector<double>> YamlSection::points(const std::string& key, int dim) {
   YAML::Node c = child(key, "a list of points");
   if (!c.IsSequence() || c.size() == 0) fail_value(key, scalar_text(c), "must be a non-empty list of points");

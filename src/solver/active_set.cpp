@@ -21,13 +21,14 @@ void ActiveSet<dim>::build(const Grid<dim>& grid, const GridFields<dim>& fields,
                            const std::array<FaceCondition, 6>& faces) {
   destroy();
   comm_ = grid.comm();
-  const int n = grid.ghosted_count();
+  // Nodes: one per ghosted point and velocity field (GridFields), field-major.
+  const int points = grid.ghosted_count(), n = points * fields.field_count;
   compact_.assign(n, -1);
   owned_points_.clear();
   constrained_.assign(static_cast<std::size_t>(n) * dim, 0);
 
   for (int i = 0; i < n; ++i) {
-    const auto ijk = grid.global_index(i);
+    const auto ijk = grid.global_index(i % points);
     for (int a = 0; a < dim; ++a) {
       const FaceCondition lo = faces[2 * a], hi = faces[2 * a + 1];
       FaceCondition f = FaceCondition::free;
@@ -50,8 +51,10 @@ void ActiveSet<dim>::build(const Grid<dim>& grid, const GridFields<dim>& fields,
   first /= dim;
   global_count_ /= dim;
 
-  // Compact indices of ghost points come from their owners through the DMDA.
-  {
+  // Compact indices of ghost points come from their owners through the DMDA,
+  // one field at a time.
+  for (int field = 0; field < fields.field_count; ++field) {
+    const int offset = field * points;
     DM da = grid.dm();
     Vec g, l;
     TALUS_PETSC(DMGetGlobalVector(da, &g));
@@ -63,7 +66,8 @@ void ActiveSet<dim>::build(const Grid<dim>& grid, const GridFields<dim>& fields,
     const auto& s = grid.owned_start();
     const auto& m = grid.owned_size();
     for (PetscInt k = 0; k < owned_count_; ++k) {
-      const auto ijk = grid.global_index(owned_points_[k]);
+      if (owned_points_[k] / points != field) continue;
+      const auto ijk = grid.global_index(owned_points_[k] - offset);
       int idx = 0;
       for (int a = dim - 1; a >= 0; --a) idx = idx * m[a] + (ijk[a] - s[a]);
       ga[idx] = static_cast<PetscScalar>(first + k);
@@ -73,7 +77,7 @@ void ActiveSet<dim>::build(const Grid<dim>& grid, const GridFields<dim>& fields,
     TALUS_PETSC(DMGlobalToLocalEnd(da, g, INSERT_VALUES, l));
     const PetscScalar* la;
     TALUS_PETSC(VecGetArrayRead(l, &la));
-    for (int i = 0; i < n; ++i) compact_[i] = static_cast<PetscInt>(std::lround(la[i]));
+    for (int i = 0; i < points; ++i) compact_[offset + i] = static_cast<PetscInt>(std::lround(la[i]));
     TALUS_PETSC(VecRestoreArrayRead(l, &la));
     TALUS_PETSC(DMRestoreLocalVector(da, &l));
     TALUS_PETSC(DMRestoreGlobalVector(da, &g));

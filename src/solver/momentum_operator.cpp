@@ -30,8 +30,7 @@ void MomentumSystem<dim>::apply_jacobian(Vec x, Vec y) {
   // products (docs/solver.md#the-jacobian-as-an-operator).
   const auto t0 = std::chrono::steady_clock::now();
   active_.to_grid(x, operator_x_);
-  const int n = grid_.ghosted_count();
-  for (int i = 0; i < n; ++i)
+  for (int i = 0; i < nodes_; ++i)
     for (int c = 0; c < dim; ++c)
       if (active_.constrained(i, c)) operator_x_[dim * i + c] = 0.0;
   operator_y_.assign(operator_x_.size(), 0.0);
@@ -73,6 +72,15 @@ void MomentumSystem<dim>::apply_jacobian(Vec x, Vec y) {
       const std::size_t r = dim * k + c;
       out[r] = active_.constrained(i, c) ? fields_.mass[i] * in[r] : out[r] + fields_.mass[i] * in[r];
     }
+  }
+  for (std::size_t c = 0; c < body_contacts_.size(); ++c) {
+    // Row b: the point's total balance (both momentum rows); row a: P times
+    // a's momentum row + Q (x_a - x_b).
+    const BodyContactPoint<dim>& cp = body_contacts_[c];
+    Eigen::Map<Vector<dim>> ya(out + cp.row_a), yb(out + cp.row_b);
+    const Eigen::Map<const Vector<dim>> xa(in + cp.row_a), xb(in + cp.row_b);
+    yb += ya;
+    ya = (body_left_[c] * ya + body_right_[c] * (xa - xb)).eval();
   }
   for (std::size_t c = 0; c < contacts_.size() && any_contacts_; ++c) {
     const std::size_t r = static_cast<std::size_t>(contacts_[c].row);

@@ -12,7 +12,8 @@ MomentumSystem<dim>::MomentumSystem(const Grid<dim>& grid, const Particles<dim>&
                                     const std::vector<Stencil<dim>>& stencils, const GridFields<dim>& fields,
                                     const ActiveSet<dim>& active, const std::vector<const Material*>& materials,
                                     const Vector<dim>& gravity, double h, double theta,
-                                    std::vector<ContactPoint<dim>> contacts)
+                                    std::vector<ContactPoint<dim>> contacts,
+                                    std::vector<BodyContactPoint<dim>> body_contacts)
     : grid_(grid),
       stencils_(stencils),
       fields_(fields),
@@ -21,12 +22,17 @@ MomentumSystem<dim>::MomentumSystem(const Grid<dim>& grid, const Particles<dim>&
       gravity_(gravity),
       h_(h),
       theta_(theta),
-      contacts_(std::move(contacts)) {
+      contacts_(std::move(contacts)),
+      body_contacts_(std::move(body_contacts)) {
+  points_ = grid.ghosted_count();
+  nodes_ = static_cast<int>(fields.mass.size());
   contact_impulse_.assign(contacts_.size(), Vector<dim>::Zero());
   contact_map_.resize(contacts_.size());
+  body_impulse_.assign(body_contacts_.size(), Vector<dim>::Zero());
+  body_map_.resize(body_contacts_.size());
   // The contact evaluation has collective parts (VecEqual, assembly): every
   // rank takes it when any rank has a contact point.
-  int local_contacts = contacts_.empty() ? 0 : 1;
+  int local_contacts = contacts_.empty() && body_contacts_.empty() ? 0 : 1;
   MPI_Allreduce(&local_contacts, &any_contacts_, 1, MPI_INT, MPI_MAX, grid.comm());
   const PetscInt np = particles.local_count();
   DM sw = particles.swarm();
@@ -58,9 +64,8 @@ MomentumSystem<dim>::MomentumSystem(const Grid<dim>& grid, const Particles<dim>&
   stiff_.assign(np, 0);
 
   // v^n on the unknowns only: inactive points and constrained components carry none.
-  const int n = grid.ghosted_count();
-  velocity_old_.assign(static_cast<std::size_t>(n) * dim, 0.0);
-  for (int i = 0; i < n; ++i)
+  velocity_old_.assign(static_cast<std::size_t>(nodes_) * dim, 0.0);
+  for (int i = 0; i < nodes_; ++i)
     if (active.compact_index(i) >= 0)
       for (int c = 0; c < dim; ++c)
         if (!active.constrained(i, c)) velocity_old_[dim * i + c] = fields.velocity[dim * i + c];
@@ -84,8 +89,7 @@ template <int dim>
 void MomentumSystem<dim>::evaluate_particles(Vec v) {
   const auto t0 = std::chrono::steady_clock::now();
   active_.to_grid(v, velocity_);
-  const int n = grid_.ghosted_count();
-  for (int i = 0; i < n; ++i)
+  for (int i = 0; i < nodes_; ++i)
     for (int c = 0; c < dim; ++c)
       if (active_.constrained(i, c)) velocity_[dim * i + c] = 0.0;
   force_.assign(velocity_.size(), 0.0);
@@ -163,8 +167,7 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
 template <int dim>
 void MomentumSystem<dim>::residual(Vec v, Vec F) {
   evaluate_particles(v);
-  const int n = grid_.ghosted_count();
-  for (int i = 0; i < n; ++i)
+  for (int i = 0; i < nodes_; ++i)
     for (int c = 0; c < dim; ++c) force_[dim * i + c] = active_.constrained(i, c) ? 0.0 : h_ * force_[dim * i + c];
   TALUS_PETSC(VecZeroEntries(F));
   active_.add_to_compact(force_, F);
@@ -212,6 +215,16 @@ void MomentumSystem<dim>::contact_rows(Vec v, Vec F) {
     for (int a = 0; a < dim; ++a)
       if (cp.free[a]) f[cp.row + a] = contact_map_[c].value[a];
   }
+  for (std::size_t c = 0; c < body_contacts_.size(); ++c) {
+    const BodyContactPoint<dim>& cp = body_contacts_[c];
+    // The impulse body b gives body a: a's momentum imbalance R_a(v).
+    const Vector<dim> r = Eigen::Map<const Vector<dim>>(f + cp.row_a);
+    const Vector<dim> u = Eigen::Map<const Vector<dim>>(x + cp.row_a) - Eigen::Map<const Vector<dim>>(x + cp.row_b);
+    body_impulse_[c] = r;
+    body_map_[c] = natural_map<dim>(r, u, -cp.normal, cp.friction, 0.0, cp.start_normal_velocity, cp.rho);
+    Eigen::Map<Vector<dim>>(f + cp.row_b) += r;  // R_a + R_b: the point's total balance
+    Eigen::Map<Vector<dim>>(f + cp.row_a) = body_map_[c].value;
+  }
   TALUS_PETSC(VecRestoreArrayRead(v, &x));
   TALUS_PETSC(VecRestoreArray(F, &f));
   if (!contact_at_) TALUS_PETSC(VecDuplicate(v, &contact_at_));
@@ -241,10 +254,16 @@ void MomentumSystem<dim>::contact_factors(Vec v) {
     for (int a = 0; a < dim; ++a)
       if (!contacts_[c].free[a]) P.row(a) = Matrix<dim>::Identity().row(a), Q.row(a).setZero();
   }
+  body_left_.resize(body_contacts_.size());
+  body_right_.resize(body_contacts_.size());
+  for (std::size_t c = 0; c < body_contacts_.size(); ++c) {
+    body_left_[c] = body_map_[c].d_impulse;
+    body_right_[c] = body_map_[c].d_velocity;
+  }
 }
 
 template <int dim>
-std::vector<double> MomentumSystem<dim>::contact_row_factors(Vec v) {
+std::vector<double> MomentumSystem<dim>::contact_row_factors(Vec v, std::vector<int>& partner) {
   contact_factors(v);
   const auto t0 = std::chrono::steady_clock::now();
   // The natural map's row block of contact point i is linear in the point's
@@ -258,7 +277,10 @@ std::vector<double> MomentumSystem<dim>::contact_row_factors(Vec v) {
   // written in the same assembly pass as the momentum rows (no MatGetRow,
   // no second assembly). Ranks that hold point i as a ghost need P_i from its
   // owner: one scatter per column of P. Q_i goes with the mass, on the owner.
-  const int n = grid_.ghosted_count();
+  // A body contact's row a is P times its momentum row, and its row b takes
+  // that momentum row as well: ranks that hold a as a ghost learn b (its
+  // field + 1 in the first component; 0: none) through the same scatter.
+  const int n = nodes_;
   std::vector<double> left(static_cast<std::size_t>(n) * dim * dim, 0.0), column;
   Vec compact = active_.create_vector();
   for (int j = 0; j < dim; ++j) {
@@ -269,10 +291,27 @@ std::vector<double> MomentumSystem<dim>::contact_row_factors(Vec v) {
       for (int a = 0; a < dim; ++a) x[dim * k + a] = a == j ? 1.0 : 0.0;
     for (std::size_t c = 0; c < contacts_.size(); ++c)
       for (int a = 0; a < dim; ++a) x[contacts_[c].row + a] = contact_left_[c](a, j);
+    for (std::size_t c = 0; c < body_contacts_.size(); ++c)
+      for (int a = 0; a < dim; ++a) x[body_contacts_[c].row_a + a] = body_left_[c](a, j);
     TALUS_PETSC(VecRestoreArray(compact, &x));
     active_.to_grid(compact, column);
     for (int i = 0; i < n; ++i)
       for (int a = 0; a < dim; ++a) left[(static_cast<std::size_t>(i) * dim + a) * dim + j] = column[dim * i + a];
+  }
+  partner.assign(n, -1);
+  int any_bodies = 0, local_bodies = body_contacts_.empty() ? 0 : 1;
+  MPI_Allreduce(&local_bodies, &any_bodies, 1, MPI_INT, MPI_MAX, grid_.comm());
+  if (any_bodies) {
+    TALUS_PETSC(VecZeroEntries(compact));
+    PetscScalar* x;
+    TALUS_PETSC(VecGetArray(compact, &x));
+    for (const BodyContactPoint<dim>& cp : body_contacts_) x[cp.row_a] = cp.node_b / points_ + 1;
+    TALUS_PETSC(VecRestoreArray(compact, &x));
+    active_.to_grid(compact, column);
+    for (int i = 0; i < n; ++i) {
+      const long field = std::lround(column[static_cast<std::size_t>(dim) * i]) - 1;
+      if (field >= 0) partner[i] = static_cast<int>(field) * points_ + i % points_;
+    }
   }
   TALUS_PETSC(VecDestroy(&compact));
   contact_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -280,10 +319,36 @@ std::vector<double> MomentumSystem<dim>::contact_row_factors(Vec v) {
 }
 
 template <int dim>
+bool MomentumSystem<dim>::shared_point(int node) const {
+  int count = 0;
+  for (int f = 0; f < fields_.field_count; ++f) count += active_.compact_index(f * points_ + node % points_) >= 0;
+  return count > 1;
+}
+
+template <int dim>
+void MomentumSystem<dim>::neighbour_columns(const std::array<int, dim>& ijk, int field,
+                                            std::vector<PetscInt>& cols) const {
+  const int reach = grid_.shape() == ShapeKind::linear ? 1 : 2, width = 2 * reach + 1;
+  int neighbours = 1;
+  for (int a = 0; a < dim; ++a) neighbours *= width;
+  cols.resize(neighbours);
+  for (int n = 0; n < neighbours; ++n) {
+    std::array<int, dim> jk;
+    bool inside = true;
+    for (int ax = 0, r = n; ax < dim; ++ax, r /= width) {
+      jk[ax] = ijk[ax] + r % width - reach;
+      inside &= jk[ax] >= grid_.ghost_start()[ax] && jk[ax] < grid_.ghost_start()[ax] + grid_.ghost_size()[ax];
+    }
+    cols[n] = inside ? active_.compact_index(field * points_ + grid_.local_index(jk)) : -1;
+  }
+}
+
+template <int dim>
 void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
   // The contact rows' left factors P_i (row-major dim x dim per ghosted
   // point), or none without contact.
-  const std::vector<double> left = any_contacts_ ? contact_row_factors(v) : std::vector<double>();
+  std::vector<int> partner;
+  const std::vector<double> left = any_contacts_ ? contact_row_factors(v, partner) : std::vector<double>();
   if (!evaluated_at(v)) evaluate_particles(v);
   const auto t_assembly = std::chrono::steady_clock::now();
   TALUS_PETSC(MatZeroEntries(J));
@@ -298,7 +363,7 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
   // (members), so only their values are reset, not their memory.
   std::vector<int>& slot = jacobian_slot_;
   std::vector<int>& slot_point = jacobian_slot_point_;
-  slot.assign(grid_.ghosted_count(), -1);
+  slot.assign(nodes_, -1);
   slot_point.clear();
   for (const Stencil<dim>& st : stencils_)
     for (int k = 0; k < st.count; ++k)
@@ -365,12 +430,17 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
     }
   }
 
-  std::vector<PetscInt> cols(neighbours);
+  std::vector<PetscInt> cols(neighbours), other;
+  std::vector<double> zeros;
   for (std::size_t sa = 0; sa < slot_point.size(); ++sa) {
     const int point = slot_point[sa];
-    const auto ijk = grid_.global_index(point);
+    const int field = point / points_;
+    const auto ijk = grid_.global_index(point % points_);
     double* row = rows.data() + sa * dim * row_length;
+    neighbour_columns(ijk, field, cols);
     for (int n = 0; n < neighbours; ++n) {
+      // Constrained components: zero rows and columns (their equation is m_i v_i = 0).
+      // (The constraints are those of the point, the same in every field.)
       std::array<int, dim> jk;
       bool inside = true;
       for (int ax = 0, r = n; ax < dim; ++ax, r /= width) {
@@ -378,12 +448,28 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
         inside &= jk[ax] >= grid_.ghost_start()[ax] && jk[ax] < grid_.ghost_start()[ax] + grid_.ghost_size()[ax];
       }
       const int neighbour = inside ? grid_.local_index(jk) : -1;
-      cols[n] = inside ? active_.compact_index(neighbour) : -1;
-      // Constrained components: zero rows and columns (their equation is m_i v_i = 0).
       for (int i = 0; i < dim; ++i)
         for (int k = 0; k < dim; ++k)
           if (active_.constrained(point, i) || (neighbour >= 0 && active_.constrained(neighbour, k)))
             row[i * row_length + n * dim + k] = 0.0;
+    }
+    if (!partner.empty() && partner[point] >= 0) {
+      // Row b of a body contact takes a's momentum row as it is (R_a + R_b).
+      const PetscInt rb = active_.compact_index(partner[point]);
+      TALUS_PETSC(MatSetValuesBlocked(J, 1, &rb, neighbours, cols.data(), row, ADD_VALUES));
+    }
+    if (fields_.field_count > 1 && shared_point(point) && active_.compact_index(point) >= 0 &&
+        grid_.is_owned(ijk)) {
+      // Where fields meet, a node's block row holds the other fields'
+      // neighbours too (zeros unless a body contact fills them), so the
+      // pattern is a function of the active nodes alone (reuse across steps).
+      zeros.assign(static_cast<std::size_t>(dim) * row_length, 0.0);
+      const PetscInt r = active_.compact_index(point);
+      for (int g = 0; g < fields_.field_count; ++g) {
+        if (g == field || active_.compact_index(g * points_ + point % points_) < 0) continue;
+        neighbour_columns(ijk, g, other);
+        TALUS_PETSC(MatSetValuesBlocked(J, 1, &r, neighbours, other.data(), zeros.data(), ADD_VALUES));
+      }
     }
     if (!left.empty()) {
       // A contact point's share of its natural-map row: P_i times the share
@@ -411,6 +497,18 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
   for (std::size_t c = 0; c < contact_left_.size() && !left.empty(); ++c) {
     const std::size_t k = static_cast<std::size_t>(contacts_[c].row / dim);
     diagonal[k] = fields_.mass[owned[k]] * contact_left_[c] + contact_right_[c];
+  }
+  for (std::size_t c = 0; c < body_left_.size() && !left.empty(); ++c) {
+    // Row a: m_a P + Q on v_a, -Q on v_b; row b: m_a on v_a (R_a's mass
+    // term), its own m_b below.
+    const BodyContactPoint<dim>& cp = body_contacts_[c];
+    const std::size_t k = static_cast<std::size_t>(cp.row_a / dim);
+    diagonal[k] = fields_.mass[cp.node_a] * body_left_[c] + body_right_[c];
+    const PetscInt ra = first + cp.row_a / dim, rb = first + cp.row_b / dim;
+    const Eigen::Matrix<double, dim, dim, Eigen::RowMajor> ab = -body_right_[c];
+    const Eigen::Matrix<double, dim, dim, Eigen::RowMajor> ba = fields_.mass[cp.node_a] * Matrix<dim>::Identity();
+    TALUS_PETSC(MatSetValuesBlocked(J, 1, &ra, 1, &rb, ab.data(), ADD_VALUES));
+    TALUS_PETSC(MatSetValuesBlocked(J, 1, &rb, 1, &ra, ba.data(), ADD_VALUES));
   }
   for (std::size_t k = 0; k < owned.size(); ++k) {
     const PetscInt r = first + static_cast<PetscInt>(k);
@@ -444,7 +542,9 @@ Mat MomentumSystem<dim>::create_matrix(MatType type) const {
   const auto& gs = grid_.ghost_start();
   const auto& gm = grid_.ghost_size();
   for (PetscInt k = 0; k < nloc; ++k) {
-    const auto ijk = grid_.global_index(owned[k]);
+    const int field = owned[k] / points_;
+    const bool shared = fields_.field_count > 1 && shared_point(owned[k]);
+    const auto ijk = grid_.global_index(owned[k] % points_);
     std::array<int, dim> lo, hi, j;
     for (int a = 0; a < dim; ++a) {
       lo[a] = std::max(ijk[a] - reach, gs[a]);
@@ -452,8 +552,12 @@ Mat MomentumSystem<dim>::create_matrix(MatType type) const {
       j[a] = lo[a];
     }
     while (true) {
-      const PetscInt c = active_.compact_index(grid_.local_index(j));
-      if (c >= 0) (c >= first && c < first + nloc ? d_nnz[k] : o_nnz[k])++;
+      // The node's own field; where fields meet, every field (jacobian()).
+      for (int g = 0; g < fields_.field_count; ++g) {
+        if (g != field && !shared) continue;
+        const PetscInt c = active_.compact_index(g * points_ + grid_.local_index(j));
+        if (c >= 0) (c >= first && c < first + nloc ? d_nnz[k] : o_nnz[k])++;
+      }
       int a = 0;
       while (a < dim && ++j[a] > hi[a]) j[a] = lo[a], ++a;
       if (a == dim) break;
@@ -478,7 +582,7 @@ Mat MomentumSystem<dim>::create_matrix(MatType type) const {
   PetscScalar* c;
   TALUS_PETSC(VecGetArray(coordinates, &c));
   for (PetscInt k = 0; k < nloc; ++k) {
-    const Vector<dim> x = grid_.point_position(grid_.global_index(owned[k]));
+    const Vector<dim> x = grid_.point_position(grid_.global_index(owned[k] % points_));
     for (int a = 0; a < dim; ++a) c[dim * k + a] = x[a];
   }
   TALUS_PETSC(VecRestoreArray(coordinates, &c));
@@ -589,6 +693,17 @@ StepEnergy MomentumSystem<dim>::step_energy(double stress_weight, double velocit
       v[a] = (1.0 - velocity_weight) * velocity_old_[dim * i + a] + velocity_weight * velocity_[dim * i + a];
     e.terms.contact -= impulses[c].dot(v - contacts[c].obstacle_velocity);
     e.terms.obstacle_work += impulses[c].dot(contacts[c].obstacle_velocity);
+  }
+  // Bodies in contact: r on a, -r on b, work r . (v_a - v_b)^w (<= 0: friction).
+  for (std::size_t c = 0; c < body_contacts_.size(); ++c) {
+    const BodyContactPoint<dim>& cp = body_contacts_[c];
+    Vector<dim> u;
+    for (int a = 0; a < dim; ++a) {
+      const std::size_t ka = static_cast<std::size_t>(dim) * cp.node_a + a, kb = static_cast<std::size_t>(dim) * cp.node_b + a;
+      u[a] = (1.0 - velocity_weight) * (velocity_old_[ka] - velocity_old_[kb]) +
+             velocity_weight * (velocity_[ka] - velocity_[kb]);
+    }
+    e.terms.contact -= body_impulse_[c].dot(u);
   }
   return e;
 }

@@ -3,63 +3,82 @@
 namespace talus {
 
 template <int dim>
-void compute_stencils(const Grid<dim>& grid, const Particles<dim>& particles, std::vector<Stencil<dim>>& stencils) {
+void compute_stencils(const Grid<dim>& grid, const Particles<dim>& particles, std::vector<Stencil<dim>>& stencils,
+                      const std::vector<int>& body_field) {
   const PetscInt n = particles.local_count();
   stencils.resize(n);
   FieldView<PetscReal> x(particles.swarm(), field::position);
   for (PetscInt p = 0; p < n; ++p) grid.stencil(Eigen::Map<const Vector<dim>>(x.data() + dim * p), stencils[p]);
+  if (body_field.empty()) return;
+  FieldView<PetscInt> body(particles.swarm(), field::body_id);
+  const int points = grid.ghosted_count();
+  for (PetscInt p = 0; p < n; ++p) {
+    const int offset = body_field[body[p]] * points;
+    Stencil<dim>& st = stencils[p];
+    for (int k = 0; k < st.count; ++k) st.local[k] += offset;
+  }
 }
 
 template <int dim>
 void particles_to_grid(const Grid<dim>& grid, const Particles<dim>& particles,
-                       const std::vector<Stencil<dim>>& stencils, TransferScheme scheme, GridFields<dim>& out) {
+                       const std::vector<Stencil<dim>>& stencils, TransferScheme scheme, GridFields<dim>& out,
+                       int field_count) {
   constexpr int bs = dim + 1;  // (m, m v) per grid point
   DM da = grid.mass_momentum_dm();
+  const int n = grid.ghosted_count();
+  out.field_count = field_count;
+  out.points = n;
+  out.mass.assign(static_cast<std::size_t>(n) * field_count, 0.0);
+  out.velocity.assign(static_cast<std::size_t>(n) * field_count * dim, 0.0);
   Vec local, global;
   TALUS_PETSC(DMGetLocalVector(da, &local));
   TALUS_PETSC(DMGetGlobalVector(da, &global));
-  TALUS_PETSC(VecZeroEntries(local));
-  TALUS_PETSC(VecZeroEntries(global));
-  {
-    PetscScalar* g;
-    TALUS_PETSC(VecGetArray(local, &g));
-    DM sw = particles.swarm();
-    FieldView<PetscReal> x(sw, field::position), v(sw, field::velocity), c(sw, field::affine_velocity),
-        m(sw, field::mass);
-    const PetscInt np = particles.local_count();
-    const bool apic = scheme == TransferScheme::apic;
-    for (PetscInt p = 0; p < np; ++p) {
-      const Stencil<dim>& st = stencils[p];
-      const Eigen::Map<const Vector<dim>> xp(x.data() + dim * p), vp(v.data() + dim * p);
-      const Eigen::Map<const Eigen::Matrix<double, dim, dim, Eigen::RowMajor>> cp(c.data() + dim * dim * p);
-      for (int k = 0; k < st.count; ++k) {
-        const double w = m[p] * st.weight[k];
-        PetscScalar* node = g + bs * st.local[k];
-        node[0] += w;
-        Vector<dim> momentum = w * vp;
-        if (apic) momentum += w * (cp * (grid.point_position(st.node[k]) - xp));
-        for (int a = 0; a < dim; ++a) node[1 + a] += momentum[a];
+  // One pass over the DMDA per field: its particles' sums (the stencil's
+  // node index less the field's offset is the ghosted point).
+  for (int field = 0; field < field_count; ++field) {
+    TALUS_PETSC(VecZeroEntries(local));
+    TALUS_PETSC(VecZeroEntries(global));
+    const int offset = field * n;
+    {
+      PetscScalar* g;
+      TALUS_PETSC(VecGetArray(local, &g));
+      DM sw = particles.swarm();
+      FieldView<PetscReal> x(sw, field::position), v(sw, field::velocity), c(sw, field::affine_velocity),
+          m(sw, field::mass);
+      const PetscInt np = particles.local_count();
+      const bool apic = scheme == TransferScheme::apic;
+      for (PetscInt p = 0; p < np; ++p) {
+        const Stencil<dim>& st = stencils[p];
+        if (field_count > 1 && st.local[0] / n != field) continue;
+        const Eigen::Map<const Vector<dim>> xp(x.data() + dim * p), vp(v.data() + dim * p);
+        const Eigen::Map<const Eigen::Matrix<double, dim, dim, Eigen::RowMajor>> cp(c.data() + dim * dim * p);
+        for (int k = 0; k < st.count; ++k) {
+          const double w = m[p] * st.weight[k];
+          PetscScalar* node = g + bs * (st.local[k] - offset);
+          node[0] += w;
+          Vector<dim> momentum = w * vp;
+          if (apic) momentum += w * (cp * (grid.point_position(st.node[k]) - xp));
+          for (int a = 0; a < dim; ++a) node[1 + a] += momentum[a];
+        }
       }
+      TALUS_PETSC(VecRestoreArray(local, &g));
     }
-    TALUS_PETSC(VecRestoreArray(local, &g));
-  }
-  TALUS_PETSC(DMLocalToGlobalBegin(da, local, ADD_VALUES, global));
-  TALUS_PETSC(DMLocalToGlobalEnd(da, local, ADD_VALUES, global));
-  TALUS_PETSC(DMGlobalToLocalBegin(da, global, INSERT_VALUES, local));
-  TALUS_PETSC(DMGlobalToLocalEnd(da, global, INSERT_VALUES, local));
-  {
-    const PetscScalar* g;
-    TALUS_PETSC(VecGetArrayRead(local, &g));
-    const int n = grid.ghosted_count();
-    out.mass.assign(n, 0.0);
-    out.velocity.assign(static_cast<std::size_t>(n) * dim, 0.0);
-    for (int i = 0; i < n; ++i) {
-      const double mi = g[bs * i];
-      out.mass[i] = mi;
-      if (mi > 0)
-        for (int a = 0; a < dim; ++a) out.velocity[dim * i + a] = g[bs * i + 1 + a] / mi;
+    TALUS_PETSC(DMLocalToGlobalBegin(da, local, ADD_VALUES, global));
+    TALUS_PETSC(DMLocalToGlobalEnd(da, local, ADD_VALUES, global));
+    TALUS_PETSC(DMGlobalToLocalBegin(da, global, INSERT_VALUES, local));
+    TALUS_PETSC(DMGlobalToLocalEnd(da, global, INSERT_VALUES, local));
+    {
+      const PetscScalar* g;
+      TALUS_PETSC(VecGetArrayRead(local, &g));
+      for (int i = 0; i < n; ++i) {
+        const double mi = g[bs * i];
+        const std::size_t node = static_cast<std::size_t>(offset + i);
+        out.mass[node] = mi;
+        if (mi > 0)
+          for (int a = 0; a < dim; ++a) out.velocity[dim * node + a] = g[bs * i + 1 + a] / mi;
+      }
+      TALUS_PETSC(VecRestoreArrayRead(local, &g));
     }
-    TALUS_PETSC(VecRestoreArrayRead(local, &g));
   }
   TALUS_PETSC(DMRestoreGlobalVector(da, &global));
   TALUS_PETSC(DMRestoreLocalVector(da, &local));
@@ -104,12 +123,14 @@ void grid_to_particles(Particles<dim>& particles, const std::vector<Stencil<dim>
   }
 }
 
-template void compute_stencils<2>(const Grid<2>&, const Particles<2>&, std::vector<Stencil<2>>&);
-template void compute_stencils<3>(const Grid<3>&, const Particles<3>&, std::vector<Stencil<3>>&);
+template void compute_stencils<2>(const Grid<2>&, const Particles<2>&, std::vector<Stencil<2>>&,
+                                  const std::vector<int>&);
+template void compute_stencils<3>(const Grid<3>&, const Particles<3>&, std::vector<Stencil<3>>&,
+                                  const std::vector<int>&);
 template void particles_to_grid<2>(const Grid<2>&, const Particles<2>&, const std::vector<Stencil<2>>&,
-                                   TransferScheme, GridFields<2>&);
+                                   TransferScheme, GridFields<2>&, int);
 template void particles_to_grid<3>(const Grid<3>&, const Particles<3>&, const std::vector<Stencil<3>>&,
-                                   TransferScheme, GridFields<3>&);
+                                   TransferScheme, GridFields<3>&, int);
 template void grid_to_particles<2>(Particles<2>&, const std::vector<Stencil<2>>&,
                                    const std::vector<double>&, const std::vector<double>&,
                                    const std::vector<double>&, double, double, const TransferConfig&);

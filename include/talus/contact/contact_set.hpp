@@ -36,11 +36,52 @@ struct ContactPoint {
   std::array<bool, dim> free;  // components not constrained by a slip face
 };
 
+// A grid point where two velocity fields meet (docs/contact.md#bodies-in-contact):
+// bodies in contact with each other. The impulse r that field b gives field a
+// (and -r that a gives b) obeys the same Coulomb cone as an obstacle's, with
+// the axis -normal (pushing a away from b) and the relative velocity
+// u = v_a - v_b. r is condensed as for obstacles: r = R_a(v), the momentum
+// imbalance of a's node; a's row becomes the natural map and b's the
+// point's total balance R_a + R_b = 0.
+template <int dim>
+struct BodyContactPoint {
+  int node_a = -1, node_b = -1;   // ghosted nodes (owned) of the two fields at the point
+  PetscInt row_a = 0, row_b = 0;  // local offsets of their first components in the compact vector
+  double gap = 0.0;               // the bodies' gap along the normal at t^n
+  Vector<dim> normal;             // outward normal of body a: from a into b
+  double friction = 0.0;
+  double start_normal_velocity = 0.0;  // u_N^n = (v_a^n - v_b^n) . (-normal), > 0 separating
+  double rho = 0.0;               // natural-map parameter: the reduced mass m_a m_b / (m_a + m_b)
+};
+
 template <int dim>
 std::vector<ContactPoint<dim>> find_contact_candidates(const Grid<dim>& grid, const Particles<dim>& particles,
                                                        const std::vector<Stencil<dim>>& stencils,
                                                        const GridFields<dim>& fields, const ActiveSet<dim>& active,
                                                        const std::vector<Obstacle<dim>>& obstacles, double time,
                                                        double h, double gap_prediction);
+
+// Points where two fields are predicted to touch within the step:
+// g + gap_prediction h min(u_N^n, 0) <= 0, with g the gap between the two
+// bodies' particles along the normal. The normal comes from the fields'
+// volume gradients g_f = sum over f's particles of V_p grad N_i(x_p), each
+// along its body's outward normal (Bardenhagen et al. 2001): a point is a
+// contact point only where the two oppose each other within 30 degrees (not
+// at a block's corner, where they are 45 degrees apart), and the normal is
+// that of the larger body of the two (by volume), whose surface is the
+// flatter one at the contact. The gap comes from
+// the particles around the point: min over b's particles of x_q . n - e_q
+// less max over a's of x_p . n + e_p (e half the extent of the particle's
+// initial cube along n), so contact closes when the bodies' surfaces meet,
+// not one or two cells early as with shared nodal mass alone. Where three
+// or more fields meet, the two heaviest are paired. Points that are obstacle
+// contacts or carry a constrained component are left out.
+template <int dim>
+std::vector<BodyContactPoint<dim>> find_body_contacts(const Grid<dim>& grid, const Particles<dim>& particles,
+                                                      const std::vector<Stencil<dim>>& stencils,
+                                                      const GridFields<dim>& fields, const ActiveSet<dim>& active,
+                                                      const ContactConfig& config,
+                                                      const std::vector<ContactPoint<dim>>& obstacle_contacts,
+                                                      double h);
 
 }  // namespace talus

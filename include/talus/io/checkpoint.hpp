@@ -73,6 +73,7 @@ struct CheckpointExpectations {
   std::vector<double> density;      // per material
   std::vector<int> body_material;   // per body
   int obstacles = 0;                // the case's obstacles and frictional faces (rows of /obstacles)
+  int velocity_fields = 1;          // grid/accelerated_points index field f's points after f x the grid's points
 };
 
 // The /run attributes alone (all ranks), e.g. to restore the grid's

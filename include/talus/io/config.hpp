@@ -151,8 +151,30 @@ struct BodyConfig {
 // Contact detection (docs/contact.md): a grid point is a contact candidate
 // when g + gap_prediction * h * min(u_N^n, 0) <= 0 (Moreau-Jean's predicted
 // gap, gamma in the seminar).
+//
+// Bodies in contact (docs/contact.md#bodies-in-contact): every body named in
+// a pair of contact.bodies moves with its own velocity field on the grid; the
+// bodies named in no pair share field 0 (one continuum, as without pairs).
+// Where two fields meet, their relative velocity obeys the Coulomb cone of
+// the pair's friction (0 for fields that meet without a listed pair).
+struct BodyContactPair {
+  int body_a = -1, body_b = -1;  // indices into CaseConfig::bodies
+  double friction = 0.0;
+};
+
 struct ContactConfig {
   double gap_prediction = 0.5;
+  std::vector<BodyContactPair> body_pairs;
+  std::vector<int> body_field;  // velocity field of each body; empty: one field for all
+  int field_count = 1;
+  // Coulomb friction between fields f and g.
+  double field_friction(int f, int g) const {
+    for (const BodyContactPair& p : body_pairs) {
+      const int a = body_field[p.body_a], b = body_field[p.body_b];
+      if ((a == f && b == g) || (a == g && b == f)) return p.friction;
+    }
+    return 0.0;
+  }
 };
 
 struct FaceContact {

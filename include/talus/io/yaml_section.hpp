@@ -47,6 +47,8 @@ class YamlSection {
   std::string choice(const std::string& key, const std::vector<std::string>& choices, const std::string& fallback);
   // A list of reals; `length` < 0 accepts any non-empty length.
   std::vector<double> reals(const std::string& key, int length = -1);
+  // A list of `length` texts: [a, b].
+  std::vector<std::string> texts(const std::string& key, int length);
   // A list of points, each a list of `dim` finite numbers: [[x, y], ...].
   std::vector<std::vector<double>> points(const std::string& key, int dim);
   // A list of non-empty lists of integers: [[0, 1, 2], [2, 1, 3, 4], ...].

@@ -22,6 +22,14 @@
 // are (I - D_i) dR_i/dv + rho_i D_i du_hat_i/dv_i (D_i the projection's
 // generalized derivative). One semismooth Newton solves momentum,
 // plasticity and contact together.
+//
+// Bodies in contact with each other (docs/contact.md#bodies-in-contact) have
+// separate velocity fields: the unknowns are then the active nodes (a grid
+// point in one field, GridFields), a particle's stencil reaches its field's
+// nodes only, and at a point where fields a and b touch (BodyContactPoint)
+// a's row becomes Phi(R_a(v), v_a - v_b) = 0 and b's the point's total
+// balance R_a(v) + R_b(v) = 0. Its Jacobian rows: P dR_a/dv + Q (e_a - e_b)
+// and dR_a/dv + dR_b/dv.
 #include <petscmat.h>
 
 #include <vector>
@@ -43,7 +51,8 @@ class MomentumSystem {
   MomentumSystem(const Grid<dim>& grid, const Particles<dim>& particles, const std::vector<Stencil<dim>>& stencils,
                  const GridFields<dim>& fields, const ActiveSet<dim>& active,
                  const std::vector<const Material*>& materials, const Vector<dim>& gravity, double h, double theta,
-                 std::vector<ContactPoint<dim>> contacts = {});
+                 std::vector<ContactPoint<dim>> contacts = {},
+                 std::vector<BodyContactPoint<dim>> body_contacts = {});
   ~MomentumSystem();
   MomentumSystem(const MomentumSystem&) = delete;
   MomentumSystem& operator=(const MomentumSystem&) = delete;
@@ -92,6 +101,11 @@ class MomentumSystem {
   StepEnergy step_energy(double stress_weight, double velocity_weight, const std::vector<Tangent>& compliance,
                          const std::vector<ContactPoint<dim>>& contacts, const std::vector<Vector<dim>>& impulses) const;
   const std::vector<NaturalMap<dim>>& contact_maps() const { return contact_map_; }
+  // Points where two bodies touch and, after finish(), the impulse r each
+  // gives its body a (N s; -r on body b) and its region of the cone.
+  const std::vector<BodyContactPoint<dim>>& body_contacts() const { return body_contacts_; }
+  const std::vector<Vector<dim>>& body_contact_impulses() const { return body_impulse_; }
+  const std::vector<NaturalMap<dim>>& body_contact_maps() const { return body_map_; }
   double contact_seconds() const { return contact_seconds_; }  // time spent in the contact rows
   // Time in the particles' stress updates and internal forces (every
   // residual), in assembling Jacobian matrices and in operator products
@@ -107,7 +121,14 @@ class MomentumSystem {
   // The left factors P_i of the contact rows' Jacobian (dPhi_i/dv =
   // P_i dR_i/dv + Q_i on v_i) at v, row-major dim x dim per ghosted point
   // (identity off contact points); keeps P_i, Q_i of the owned contacts.
-  std::vector<double> contact_row_factors(Vec v);
+  // With bodies in contact also, per ghosted node, the node whose row takes
+  // this node's momentum row as well (b for a contact's a, else -1).
+  std::vector<double> contact_row_factors(Vec v, std::vector<int>& partner);
+  bool shared_point(int node) const;  // more than one field is active at the node's point
+  // The active nodes of `field` within the stencils' reach of the ghosted
+  // point `point` (grid index ijk), as compact indices (-1: inactive or
+  // outside the ghost region), in the block-row order of jacobian().
+  void neighbour_columns(const std::array<int, dim>& ijk, int field, std::vector<PetscInt>& cols) const;
   void contact_factors(Vec v);  // P_i, Q_i of the contacts at v (the first half of contact_row_factors)
 
   const Grid<dim>& grid_;
@@ -141,7 +162,12 @@ class MomentumSystem {
   std::vector<double> operator_x_, operator_y_;  // apply_jacobian's ghosted vectors
   Vec evaluated_at_ = nullptr;  // the v of the last evaluation
 
+  int points_ = 0, nodes_ = 0;  // ghosted grid points; nodes (points x velocity fields)
   std::vector<ContactPoint<dim>> contacts_;
+  std::vector<BodyContactPoint<dim>> body_contacts_;
+  std::vector<Vector<dim>> body_impulse_;
+  std::vector<NaturalMap<dim>> body_map_;
+  std::vector<Matrix<dim>> body_left_, body_right_;  // P, Q of the body contacts' a rows
   std::vector<Vector<dim>> contact_impulse_;
   std::vector<NaturalMap<dim>> contact_map_;
   std::vector<Matrix<dim>> contact_left_, contact_right_;  // P_i, Q_i (contact_row_factors)

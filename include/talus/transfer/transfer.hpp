@@ -14,8 +14,17 @@ namespace talus {
 
 // Grid fields on the rank's ghosted points: values are complete (summed over
 // all ranks) on owned and ghost points alike.
+//
+// Bodies in contact (docs/contact.md#bodies-in-contact) move with separate
+// velocity fields: the grid then carries `field_count` nodes per point, node
+// f * points + i being field f at ghosted point i, and every array below is
+// indexed by node. With one field a node is a point.
 template <int dim>
 struct GridFields {
+  int field_count = 1;
+  int points = 0;                // ghosted grid points per field
+  int point_of(int node) const { return points > 0 ? node % points : node; }
+  int field_of(int node) const { return points > 0 ? node / points : 0; }
   std::vector<double> mass;      // m_i
   std::vector<double> velocity;  // v_i^n = (m v)_i / m_i, dim per point; 0 where m_i = 0
   // The grid acceleration of the last accepted step, (v_i^n - v_i^{n-1}) / h
@@ -26,13 +35,20 @@ struct GridFields {
 };
 
 // Shape-function stencils of all local particles at their current positions.
+// With `body_field` (the velocity field of each body, more than one field)
+// a particle's stencil indexes the nodes of its body's field:
+// Stencil::local holds f * ghosted points + the ghosted point.
 template <int dim>
-void compute_stencils(const Grid<dim>& grid, const Particles<dim>& particles, std::vector<Stencil<dim>>& stencils);
+void compute_stencils(const Grid<dim>& grid, const Particles<dim>& particles, std::vector<Stencil<dim>>& stencils,
+                      const std::vector<int>& body_field = {});
 
-// P2G of mass and momentum. APIC adds m_p N_ip C_p (x_i - x_p); FLIP/PIC uses v_p.
+// P2G of mass and momentum. APIC adds m_p N_ip C_p (x_i - x_p); FLIP/PIC
+// uses v_p. Each particle goes to the field of its stencil (field_count
+// fields, the same on every rank).
 template <int dim>
 void particles_to_grid(const Grid<dim>& grid, const Particles<dim>& particles,
-                       const std::vector<Stencil<dim>>& stencils, TransferScheme scheme, GridFields<dim>& out);
+                       const std::vector<Stencil<dim>>& stencils, TransferScheme scheme, GridFields<dim>& out,
+                       int field_count = 1);
 
 // G2P after the implicit solve. v_new: end-of-step grid velocity v^{n+1};
 // v_old: start-of-step v^n as used by the solve (zero on constrained

@@ -1,0 +1,298 @@
+// Bodies in frictional contact with each other (docs/contact.md#bodies-in-contact):
+// separate velocity fields per body, Coulomb contact between them in the same
+// semismooth Newton, against closed forms.
+#include <catch2/catch.hpp>
+#include <algorithm>
+#include <cmath>
+
+#include "talus/simulation.hpp"
+#include "test_support.hpp"
+
+using namespace talus;
+
+namespace {
+
+constexpr double g = 9.81;
+constexpr double pi = 3.14159265358979323846;
+
+// Mass-weighted mean and total of a particle vector field over the particles
+// of one body (all ranks): {mean, total mass}.
+template <int dim>
+std::pair<Vector<dim>, double> body_mean(Particles<dim>& particles, const char* name, int body) {
+  FieldView<PetscReal> f(particles.swarm(), name), m(particles.swarm(), field::mass);
+  FieldView<PetscInt> id(particles.swarm(), field::body_id);
+  double local[dim + 1] = {};
+  for (PetscInt p = 0; p < particles.local_count(); ++p) {
+    if (id[p] != body) continue;
+    for (int a = 0; a < dim; ++a) local[a] += m[p] * f[dim * p + a];
+    local[dim] += m[p];
+  }
+  double total[dim + 1];
+  MPI_Allreduce(local, total, dim + 1, MPI_DOUBLE, MPI_SUM, PETSC_COMM_WORLD);
+  Vector<dim> mean;
+  for (int a = 0; a < dim; ++a) mean[a] = total[a] / total[dim];
+  return {mean, total[dim]};
+}
+
+const std::string rock =
+    "{name: rock, model: linear_elastic, density: 2000, youngs_modulus: 2.0e7, poisson_ratio: 0.3}";
+
+// The grid aligned with the slope (gravity tilted by theta): a base layer
+// held by the fixed floor, a block on it, Coulomb friction mu between them.
+CaseConfig block_on_block(double theta_deg, double mu) {
+  const double theta = theta_deg * pi / 180.0;
+  return testing::case_from_yaml(
+      "grid: {lower: [0, 0], upper: [1.6, 0.6], cell_size: 0.05}\n"
+      "time: {end: 1, step: 0.005}\n"
+      "output: {enabled: false}\n"
+      "gravity: [" + std::to_string(g * std::sin(theta)) + ", " + std::to_string(-g * std::cos(theta)) + "]\n"
+      "materials: [" + rock + "]\n"
+      "bodies: [{name: base, material: rock, box: {lower: [0.0, 0.0], upper: [1.6, 0.2]}},\n"
+      "         {name: block, material: rock, box: {lower: [0.2, 0.2], upper: [0.6, 0.4]}}]\n"
+      "contact: {bodies: [{pair: [block, base], friction: " + std::to_string(mu) + "}]}\n"
+      "boundaries: {x_min: fixed, x_max: fixed, y_min: fixed, y_max: free}\n");
+}
+
+}  // namespace
+
+// Backward Euler from rest: v^k = k h a and x^k - x^0 = 0.5 a t^2 (1 + h / t)
+// at t = k h. The elastic block's own vibration under the sudden load is
+// below 0.3 % of the slide after 0.1 s (as on the obstacle incline,
+// tests/test_contact_dynamics.cpp).
+TEST_CASE("a block slides on a block at g (sin - mu cos) and sticks when tan < mu", "[bodies][contact][mpi]") {
+  const double theta = 25.0, h = 0.005, t_end = 0.4;
+  const auto run = [&](double mu, Vector<2>& slide, Vector<2>& velocity, long& contacts) {
+    Simulation<2> sim(block_on_block(theta, mu), PETSC_COMM_WORLD);
+    const Vector<2> x0 = body_mean(sim.particles(), field::position, 1).first;
+    contacts = 0;
+    long steps = 0;
+    while (sim.time() < t_end - 1e-12) {
+      const StepReport r = sim.advance(h);
+      INFO("t = " << sim.time() << ": " << r.newton.reason);
+      REQUIRE(r.converged);
+      contacts += r.body_contact_points;
+      ++steps;
+    }
+    contacts /= steps;
+    slide = body_mean(sim.particles(), field::position, 1).first - x0;
+    velocity = body_mean(sim.particles(), field::velocity, 1).first;
+  };
+  Vector<2> slide, velocity;
+  long contacts = 0;
+  SECTION("mu = 0.2 < tan 25: slides") {
+    const double mu = 0.2, a = g * (std::sin(theta * pi / 180) - mu * std::cos(theta * pi / 180));
+    run(mu, slide, velocity, contacts);
+    const double expected = 0.5 * a * t_end * t_end * (1.0 + h / t_end);
+    INFO("slide " << slide.transpose() << " m (expected " << expected << "), velocity " << velocity.transpose()
+                  << " m/s (expected " << a * t_end << "), contact points per step " << contacts);
+    CHECK(std::abs(velocity[0] - a * t_end) <= 0.01 * a * t_end);  // the 1 %
+    CHECK(std::abs(slide[0] - expected) <= 0.003 * expected);
+    CHECK(std::abs(slide[1]) <= 1e-3 * expected);  // no hopping, no sinking
+    CHECK(contacts >= 8);
+  }
+  SECTION("mu = 0.6 > tan 25 = 0.466: sticks") {
+    run(0.6, slide, velocity, contacts);
+    INFO("slide " << slide.transpose() << " m, velocity " << velocity.transpose() << " m/s");
+    // Only the elastic shear of block and base under the block's weight
+    // (tau = rho g sin H = 1.7 kPa on G = 7.7 MPa over 0.2 + 0.1 m: ~7e-5 m,
+    // 1.6e-4 m measured with the interface's compliance); sliding even at
+    // mu = 0.45 < tan 25 would move 0.5 g (sin - 0.45 cos) t^2 = 1.2e-2 m.
+    CHECK(std::abs(slide[0]) <= 5e-4);
+    CHECK(velocity.norm() <= 1e-6);  // at rest (sliding at mu = 0.45: 0.06 m/s)
+  }
+}
+
+namespace {
+
+double hashed(long key, int salt) { return std::sin(12.9898 * key + 78.233 * salt) * 0.5; }
+
+// The whole step's residual with body-contact rows (and an obstacle under
+// the base): J w against central differences of F, Drucker-Prager bodies
+// with random stresses and velocities, so that contact points stick, slide
+// and separate. Also the block matrix and the operator against J.
+template <int dim>
+void check_body_jacobian() {
+  const std::string lo = dim == 2 ? "[0, 0]" : "[0, 0, 0]";
+  const std::string hi = dim == 2 ? "[1.2, 0.8]" : "[0.9, 0.7, 0.6]";
+  const std::string base_lo = dim == 2 ? "[0.0, 0.1]" : "[0.0, 0.0, 0.1]";
+  const std::string base_hi = dim == 2 ? "[1.0, 0.3]" : "[0.8, 0.6, 0.3]";
+  const std::string block_lo = dim == 2 ? "[0.1, 0.3]" : "[0.1, 0.1, 0.3]";
+  const std::string block_hi = dim == 2 ? "[0.9, 0.5]" : "[0.6, 0.5, 0.5]";
+  const std::string g = dim == 2 ? "[0, -9.81]" : "[0, 0, -9.81]";
+  CaseConfig config = testing::case_from_yaml(
+      "grid: {lower: " + lo + ", upper: " + hi + ", cell_size: 0.1}\n"
+      "time: {end: 1, step: 0.01}\n"
+      "output: {enabled: false}\n"
+      "gravity: " + g + "\n"
+      "materials: [{name: m, model: drucker_prager, density: 2000, youngs_modulus: 1.0e6, poisson_ratio: 0.3, "
+      "friction_angle: 30, dilatancy_angle: 0, cohesion: 5.0e3}]\n"
+      "bodies: [{name: base, material: m, box: {lower: " + base_lo + ", upper: " + base_hi + "}},\n"
+      "         {name: block, material: m, box: {lower: " + block_lo + ", upper: " + block_hi + "}}]\n"
+      "contact: {bodies: [{pair: [block, base], friction: 0.4}]}\n"
+      "boundaries: {x_min: free, x_max: free}\n");
+  REQUIRE(config.contact.field_count == 2);
+  Simulation<dim> sim(config, PETSC_COMM_WORLD);
+  Particles<dim>& particles = sim.particles();
+  {
+    FieldView<PetscReal> s(particles.swarm(), field::stress), v(particles.swarm(), field::velocity);
+    FieldView<std::int64_t> id(particles.swarm(), field::particle_id);
+    for (PetscInt p = 0; p < particles.local_count(); ++p) {
+      const long k = static_cast<long>(id[p]);
+      for (int i = 0; i < 6; ++i) s[6 * p + i] = 2e4 * hashed(k, i);
+      for (int a = 0; a < dim; ++a) v[dim * p + a] = hashed(k, 10 + a);
+    }
+  }
+  const Grid<dim>& grid = sim.grid();
+  std::vector<Stencil<dim>> stencils;
+  compute_stencils(grid, particles, stencils, config.contact.body_field);
+  GridFields<dim> fields;
+  particles_to_grid(grid, particles, stencils, TransferScheme::apic, fields, config.contact.field_count);
+  ActiveSet<dim> active;
+  active.build(grid, fields, 1e-12, config.faces);
+  // A frictional floor under the base.
+  ObstacleConfig plane;
+  plane.name = "floor";
+  plane.point.assign(dim, 0.1);
+  plane.normal.assign(dim, 0.0);
+  plane.normal[dim - 1] = 1.0;
+  plane.velocity.assign(dim, 0.0);
+  plane.friction = 0.5;
+  std::vector<Obstacle<dim>> obstacles{Obstacle<dim>(plane)};
+  const double h = 0.02;
+  auto contacts = find_contact_candidates(grid, particles, stencils, fields, active, obstacles, 0.0, h, 0.5);
+  auto body_contacts = find_body_contacts(grid, particles, stencils, fields, active, config.contact, contacts, h);
+  long counts[2] = {static_cast<long>(contacts.size()), static_cast<long>(body_contacts.size())};
+  MPI_Allreduce(MPI_IN_PLACE, counts, 2, MPI_LONG, MPI_SUM, PETSC_COMM_WORLD);
+  INFO("obstacle contacts " << counts[0] << ", body contacts " << counts[1]);
+  REQUIRE(counts[0] >= 6);
+  REQUIRE(counts[1] >= 6);
+  std::vector<const Material*> materials{config.materials[0].law.get()};
+  Vector<dim> gravity = Vector<dim>::Zero();
+  gravity[dim - 1] = -9.81;
+  MomentumSystem<dim> system(grid, particles, stencils, fields, active, materials, gravity, h, 1.0, contacts,
+                             body_contacts);
+
+  Vec v = system.initial_guess(), w, vp, vm, Fp, Fm, Jw, F0;
+  TALUS_PETSC(VecDuplicate(v, &w));
+  PetscInt first, last;
+  TALUS_PETSC(VecGetOwnershipRange(v, &first, &last));
+  for (PetscInt r = first; r < last; ++r) {
+    TALUS_PETSC(VecSetValue(v, r, 0.3 * hashed(r, 50), ADD_VALUES));
+    TALUS_PETSC(VecSetValue(w, r, hashed(r, 60), INSERT_VALUES));
+  }
+  for (Vec x : {v, w}) {
+    TALUS_PETSC(VecAssemblyBegin(x));
+    TALUS_PETSC(VecAssemblyEnd(x));
+  }
+  for (Vec* x : {&vp, &vm, &Fp, &Fm, &Jw, &F0}) TALUS_PETSC(VecDuplicate(v, x));
+  system.residual(v, F0);
+  long regions[3] = {0, 0, 0};
+  for (const auto& m : system.body_contact_maps()) ++regions[static_cast<int>(m.region)];
+  MPI_Allreduce(MPI_IN_PLACE, regions, 3, MPI_LONG, MPI_SUM, PETSC_COMM_WORLD);
+  INFO("body contacts: sticking " << regions[0] << ", separating " << regions[1] << ", sliding " << regions[2]);
+  CHECK(regions[0] >= 1);
+  CHECK(regions[1] >= 1);
+  CHECK(regions[2] >= 1);
+  const double eps = 1e-7;
+  TALUS_PETSC(VecWAXPY(vp, eps, w, v));
+  TALUS_PETSC(VecWAXPY(vm, -eps, w, v));
+  system.residual(vp, Fp);
+  system.residual(vm, Fm);
+  TALUS_PETSC(VecAXPY(Fp, -1.0, Fm));
+  TALUS_PETSC(VecScale(Fp, 0.5 / eps));
+  Mat J = system.create_matrix();
+  system.jacobian(v, J);
+  TALUS_PETSC(MatMult(J, w, Jw));
+  double norm_jw, norm_diff;
+  TALUS_PETSC(VecNorm(Jw, NORM_2, &norm_jw));
+  TALUS_PETSC(VecAXPY(Fp, -1.0, Jw));
+  TALUS_PETSC(VecNorm(Fp, NORM_2, &norm_diff));
+  INFO(dim << "D: |J w| = " << norm_jw << ", |J w - FD| = " << norm_diff);
+  // As for the obstacle contact rows (tests/test_contact.cpp): round-off
+  // 1e-16 |F| / eps and curvature eps |F''| are both below 1e-8 relative; a
+  // missing or wrong term (the b row's copy of a's, -Q on v_b) shows at >= 1e-3.
+  CHECK(norm_diff <= 1e-6 * norm_jw);
+  CHECK(testing::block_matrix_difference(system, v, J) <= 1e-14);
+  CHECK(testing::operator_difference(system, v, w, Jw) <= 1e-13);
+  PetscInt rows;
+  TALUS_PETSC(MatGetSize(J, &rows, nullptr));
+  CHECK(rows == active.global_count() * dim);  // contact adds no unknowns
+  for (Vec* x : {&v, &w, &vp, &vm, &Fp, &Fm, &Jw, &F0}) TALUS_PETSC(VecDestroy(x));
+  TALUS_PETSC(MatDestroy(&J));
+}
+
+}  // namespace
+
+TEST_CASE("Jacobian with body-contact rows equals finite differences (2D)", "[bodies][contact][jacobian][mpi]") {
+  check_body_jacobian<2>();
+}
+
+TEST_CASE("Jacobian with body-contact rows equals finite differences (3D)", "[bodies][contact][jacobian][mpi]") {
+  check_body_jacobian<3>();
+}
+
+// Two elastic blocks in free flight hit each other head on and bounce apart:
+// contact pushes and never pulls (block a's momentum towards b never grows),
+// the total momentum is conserved through the impact to the Newton
+// tolerance (made 1e-12 here), and the blocks leave with a gap between them.
+TEST_CASE("two bodies collide and separate: no tensile contact force, momentum conserved", "[bodies][contact][mpi]") {
+  CaseConfig c = testing::case_from_yaml(
+      "grid: {lower: [0, 0], upper: [1.2, 0.6], cell_size: 0.05}\n"
+      "time: {end: 1, step: 0.001, theta: 0.5}\n"
+      "output: {enabled: false}\n"
+      "gravity: [0, 0]\n"
+      "materials: [" + rock + "]\n"
+      "bodies: [{name: left, material: rock, box: {lower: [0.2, 0.2], upper: [0.4, 0.4]}, velocity: [1, 0]},\n"
+      "         {name: right, material: rock, box: {lower: [0.6, 0.25], upper: [0.8, 0.45]}, velocity: [-1, 0]}]\n"
+      "contact: {bodies: [{pair: [left, right], friction: 0.3}]}\n"
+      "solver: {balance_tolerance: 1e-12}\n"
+      "boundaries: {x_min: free, x_max: free, y_min: free, y_max: free}\n");
+  Simulation<2> sim(c, PETSC_COMM_WORLD);
+  const auto [v0, mass] = body_mean(sim.particles(), field::velocity, 0);
+  const double momentum_scale = mass * v0.norm();  // each block's |momentum|
+  double pushed = 0.0, largest_pull = 0.0, largest_drift = 0.0;
+  double previous = mass * v0[0];
+  long contact_steps = 0;
+  PetscInt last_contacts = -1;
+  while (sim.time() < 0.2 - 1e-12) {
+    const StepReport r = sim.advance(2e-4);
+    INFO("t = " << sim.time() << ": " << r.newton.reason);
+    REQUIRE(r.converged);
+    contact_steps += r.body_contact_points > 0;
+    last_contacts = r.body_contact_points;
+    const auto [va, ma] = body_mean(sim.particles(), field::velocity, 0);
+    const auto [vb, mb] = body_mean(sim.particles(), field::velocity, 1);
+    const double pa = ma * va[0];
+    // A tensile force would pull the left block towards the right one.
+    largest_pull = std::max(largest_pull, pa - previous);
+    pushed += std::max(0.0, previous - pa);
+    previous = pa;
+    largest_drift = std::max(largest_drift, (ma * va + mb * vb).norm());
+  }
+  const auto [va, ma] = body_mean(sim.particles(), field::velocity, 0);
+  const auto [vb, mb] = body_mean(sim.particles(), field::velocity, 1);
+  const auto [xa, m1] = body_mean(sim.particles(), field::position, 0);
+  const auto [xb, m2] = body_mean(sim.particles(), field::position, 1);
+  INFO("steps in contact " << contact_steps << ", impulse on the left block " << pushed << " N s/m, largest pull "
+                           << largest_pull << ", largest momentum drift " << largest_drift << " (scale "
+                           << momentum_scale << "), final velocities " << va[0] << ", " << vb[0]
+                           << ", centres " << xa[0] << ", " << xb[0]);
+  CHECK(contact_steps >= 5);
+  // The impact reverses the blocks: Moreau-Jean's contact with e = 0 stops
+  // the touching points (a dissipation), and the blocks' elastic rebound
+  // sends them apart, here at 0.28 of their speed (0.65 head on without
+  // friction).
+  CHECK(pushed >= 1.2 * momentum_scale);
+  CHECK(va[0] < -0.2);
+  CHECK(vb[0] > 0.2);
+  // Never pulled; the total momentum stays 0 to the Newton tolerance (1e-12
+  // of the step's momentum scale, a few times 1e-12 relative here).
+  CHECK(largest_pull <= 1e-9 * momentum_scale);
+  CHECK(largest_drift <= 1e-9 * momentum_scale);
+  CHECK(xb[0] - xa[0] > 0.2 + 0.02);  // apart: more than a block width plus a particle
+  CHECK(last_contacts == 0);
+  // The energy balance closes: the contact's dissipation r . (v_a - v_b) is
+  // accounted (docs/energy.md), against 40 J/m of kinetic energy at the start.
+  INFO("energy balance error " << sim.energy_balance_error() << " J/m");
+  CHECK(std::abs(sim.energy_balance_error()) <= 1e-6 * 0.5 * 2 * mass * v0.squaredNorm());
+}
