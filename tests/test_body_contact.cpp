@@ -4,6 +4,7 @@
 #include <catch2/catch.hpp>
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 
 #include "talus/simulation.hpp"
 #include "test_support.hpp"
@@ -39,16 +40,18 @@ const std::string rock =
 
 // The grid aligned with the slope (gravity tilted by theta): a base layer
 // held by the fixed floor, a block on it, Coulomb friction mu between them.
-CaseConfig block_on_block(double theta_deg, double mu) {
+// `extra`: more case-file lines (the time section's end, checkpoints).
+CaseConfig block_on_block(double theta_deg, double mu, const std::string& block_x = "0.2", double end = 1.0,
+                          const std::string& extra = "output: {enabled: false}\n", const std::string& step = "0.005") {
   const double theta = theta_deg * pi / 180.0;
+  const std::string block_end = std::to_string(std::stod(block_x) + 0.4);
   return testing::case_from_yaml(
       "grid: {lower: [0, 0], upper: [1.6, 0.6], cell_size: 0.05}\n"
-      "time: {end: 1, step: 0.005}\n"
-      "output: {enabled: false}\n"
+      "time: {end: " + std::to_string(end) + ", step: " + step + "}\n" + extra +
       "gravity: [" + std::to_string(g * std::sin(theta)) + ", " + std::to_string(-g * std::cos(theta)) + "]\n"
       "materials: [" + rock + "]\n"
       "bodies: [{name: base, material: rock, box: {lower: [0.0, 0.0], upper: [1.6, 0.2]}},\n"
-      "         {name: block, material: rock, box: {lower: [0.2, 0.2], upper: [0.6, 0.4]}}]\n"
+      "         {name: block, material: rock, box: {lower: [" + block_x + ", 0.2], upper: [" + block_end + ", 0.4]}}]\n"
       "contact: {bodies: [{pair: [block, base], friction: " + std::to_string(mu) + "}]}\n"
       "boundaries: {x_min: fixed, x_max: fixed, y_min: fixed, y_max: free}\n");
 }
@@ -295,4 +298,70 @@ TEST_CASE("two bodies collide and separate: no tensile contact force, momentum c
   // accounted (docs/energy.md), against 40 J/m of kinetic energy at the start.
   INFO("energy balance error " << sim.energy_balance_error() << " J/m");
   CHECK(std::abs(sim.energy_balance_error()) <= 1e-6 * 0.5 * 2 * mass * v0.squaredNorm());
+}
+
+// The block straddles the middle of the grid, where two ranks split it, and
+// slides across it: body contact points on both ranks and at the rank
+// boundary. With LU on both sides the runs differ by round-off only
+// (tests/test_parallel_equality.cpp).
+TEST_CASE("bodies in contact: serial and parallel runs agree", "[bodies][contact][parallel][mpi]") {
+  const auto lu = testing::lu_on_every_rank();
+  const CaseConfig config = block_on_block(25.0, 0.2, "0.55");
+  Simulation<2> parallel(config, PETSC_COMM_WORLD);
+  Simulation<2> serial(config, PETSC_COMM_SELF);
+  for (int k = 0; k < 40; ++k) {
+    REQUIRE(parallel.advance(0.005).converged);
+    REQUIRE(serial.advance(0.005).converged);
+  }
+  const auto xp = testing::gather_by_id(parallel.particles(), field::position, 2);
+  const auto xs = testing::gather_by_id(serial.particles(), field::position, 2);
+  const auto sp = testing::gather_by_id(parallel.particles(), field::stress, 6);
+  const auto ss = testing::gather_by_id(serial.particles(), field::stress, 6);
+  REQUIRE(xp.size() == xs.size());
+  double dx = 0, ds = 0, smax = 0;
+  for (std::size_t i = 0; i < xp.size(); ++i) dx = std::max(dx, std::abs(xp[i] - xs[i]));
+  for (std::size_t i = 0; i < sp.size(); ++i) ds = std::max(ds, std::abs(sp[i] - ss[i])), smax = std::max(smax, std::abs(ss[i]));
+  const double slide = body_mean(serial.particles(), field::displacement, 1).first[0];
+  INFO("max |x_parallel - x_serial| = " << dx << " m, stress difference " << ds << " of " << smax << " Pa, slide " << slide);
+  CHECK(dx < 1e-9);
+  // The stress of a 1e-9 m difference across a cell: E 1e-9 / 0.05 = 0.4 Pa
+  // (the rock's strains are 6e-4, so relative to the stress the runs differ
+  // 1 / 6e-4 times more than the positions do).
+  CHECK(ds < 2e7 * 1e-9 / 0.05);
+  CHECK(slide > 0.04);  // slid 0.5 g (sin - mu cos) t^2 = 0.047 m
+}
+
+// A run with two velocity fields restarted from a checkpoint repeats the
+// uninterrupted run (the grid accelerations of both fields, the predictor,
+// come back): bit for bit in serial, to the solver tolerance on several
+// ranks (as tests/test_checkpoint.cpp). The step 2^-8 s lands on the
+// checkpoint's time exactly in both runs.
+TEST_CASE("bodies in contact: a restart repeats the uninterrupted run", "[bodies][contact][checkpoint][mpi]") {
+  const std::string dir = "checkpoint_bodies_" + std::to_string(testing::comm_size(PETSC_COMM_WORLD));
+  int rank;
+  MPI_Comm_rank(PETSC_COMM_WORLD, &rank);
+  if (rank == 0) std::filesystem::remove_all(dir);
+  MPI_Barrier(PETSC_COMM_WORLD);
+  const auto with = [&](const std::string& sub, long interval) {
+    return "output: {enabled: false}\ncheckpoint: {enabled: true, interval: " + std::to_string(interval) +
+           ", directory: " + dir + "/" + sub + "}\n";
+  };
+  const std::string step = "0.00390625";
+  Simulation<2> first(block_on_block(25.0, 0.2, "0.2", 0.125, with("first", 0), step), PETSC_COMM_WORLD);
+  const RunSummary f = first.run(nullptr);
+  Simulation<2> whole(block_on_block(25.0, 0.2, "0.2", 0.25, with("whole", f.steps), step), PETSC_COMM_WORLD);
+  whole.run(nullptr);
+  Simulation<2> second(block_on_block(25.0, 0.2, "0.2", 0.25, with("second", 0), step), PETSC_COMM_WORLD);
+  second.restart(f.last_checkpoint);
+  const RunSummary s = second.run(nullptr);
+  CHECK(s.body_contact_points > 0);
+  for (const auto& [name, block] : {std::pair{field::position, 2}, std::pair{field::velocity, 2},
+                                    std::pair{field::stress, 6}}) {
+    const double d = testing::max_relative_difference(testing::gather_by_id(whole.particles(), name, block),
+                                                      testing::gather_by_id(second.particles(), name, block));
+    INFO(name << ": largest difference " << d);
+    CHECK(d <= (testing::comm_size(PETSC_COMM_WORLD) == 1 ? 1e-12 : 1e-6));
+  }
+  MPI_Barrier(PETSC_COMM_WORLD);
+  if (rank == 0) std::filesystem::remove_all(dir);
 }
