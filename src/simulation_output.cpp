@@ -10,17 +10,25 @@ void Simulation<dim>::record_contact_forces(const std::vector<ContactPoint<dim>>
                                            const std::vector<Vector<dim>>& impulses,
                                            const std::vector<NaturalMap<dim>>& maps, double h) {
   nodal_contacts_.clear();
-  std::vector<double> local(obstacles_.size() * dim, 0.0), total(local.size(), 0.0);
+  // Per obstacle, then (several velocity fields) per obstacle and field.
+  const int fields = config_.contact.field_count, points = grid_->ghosted_count();
+  const std::size_t by_field = fields > 1 ? obstacles_.size() * fields * dim : 0;
+  std::vector<double> local(obstacles_.size() * dim + by_field, 0.0), total(local.size(), 0.0);
   for (std::size_t c = 0; c < contacts.size(); ++c) {
     const Vector<dim> force = impulses[c] / h;
-    for (int a = 0; a < dim; ++a) local[contacts[c].obstacle * dim + a] += force[a];
-    nodal_contacts_.push_back({grid_->point_position(grid_->global_index(contacts[c].point)), force,
-                               contacts[c].obstacle, maps[c].region});
+    const int o = contacts[c].obstacle, point = contacts[c].point % points, field = contacts[c].point / points;
+    for (int a = 0; a < dim; ++a) local[o * dim + a] += force[a];
+    if (by_field)
+      for (int a = 0; a < dim; ++a) local[obstacles_.size() * dim + (o * fields + field) * dim + a] += force[a];
+    nodal_contacts_.push_back({grid_->point_position(grid_->global_index(point)), force, o, maps[c].region});
   }
   if (!obstacles_.empty())
     MPI_Allreduce(local.data(), total.data(), static_cast<int>(local.size()), MPI_DOUBLE, MPI_SUM, comm_);
   for (std::size_t o = 0; o < obstacles_.size(); ++o)
     obstacle_force_[o] = Eigen::Map<const Vector<dim>>(total.data() + dim * o);
+  obstacle_field_force_.assign(by_field / dim, Vector<dim>::Zero());
+  for (std::size_t k = 0; k < obstacle_field_force_.size(); ++k)
+    obstacle_field_force_[k] = Eigen::Map<const Vector<dim>>(total.data() + obstacles_.size() * dim + dim * k);
 }
 
 template <int dim>
@@ -98,6 +106,19 @@ std::vector<std::string> Simulation<dim>::force_columns() const {
   for (const auto& [stem, unit] : blocks)
     for (const Obstacle<dim>& o : obstacles_)
       for (int a = 0; a < dim; ++a) columns.push_back(o.name() + stem + "xyz"[a] + unit);
+  // With bodies in contact, a fifth block: the force of each velocity
+  // field's bodies (named by the field's body, `unpaired` for the bodies in
+  // no pair), so that a boulder's load on a wall is told from the debris's.
+  const ContactConfig& contact = config_.contact;
+  if (contact.field_count > 1)
+    for (const Obstacle<dim>& o : obstacles_)
+      for (int f = 0; f < contact.field_count; ++f) {
+        std::string name = "unpaired";
+        for (const BodyContactPair& p : contact.body_pairs)
+          for (const int b : {p.body_a, p.body_b})
+            if (contact.body_field[b] == f) name = config_.bodies[b].name;
+        for (int a = 0; a < dim; ++a) columns.push_back(o.name() + "_f_by_" + name + "_" + "xyz"[a] + force);
+      }
   return columns;
 }
 
@@ -106,6 +127,8 @@ std::vector<double> Simulation<dim>::force_table_row() const {
   std::vector<double> row = force_row();
   for (const auto* block : {&loads_.step_impulse(), &loads_.total_impulse(), &loads_.window_force()})
     row.insert(row.end(), block->begin(), block->end());
+  for (const Vector<dim>& f : obstacle_field_force_)
+    for (int a = 0; a < dim; ++a) row.push_back(0.0 - f[a]);  // on the obstacle, as force_row()
   return row;
 }
 
@@ -125,6 +148,90 @@ std::vector<double> Simulation<dim>::force_row() const {
     for (int a = 0; a < dim; ++a) row.push_back(0.0 - f[a]);
   return row;
 }
+
+template <int dim>
+std::vector<typename Simulation<dim>::BodyMotion> Simulation<dim>::body_motion() const {
+  const std::size_t bodies = config_.bodies.size();
+  // Two passes of sums over all ranks: mass and momentum moments, then the
+  // angular momentum and inertia about the centres.
+  std::vector<double> first(bodies * (1 + 2 * dim), 0.0), first_all(first.size());
+  DM sw = particles_->swarm();
+  FieldView<PetscReal> x(sw, field::position), v(sw, field::velocity), m(sw, field::mass);
+  FieldView<PetscInt> body(sw, field::body_id);
+  const PetscInt n = particles_->local_count();
+  for (PetscInt p = 0; p < n; ++p) {
+    double* s = first.data() + body[p] * (1 + 2 * dim);
+    s[0] += m[p];
+    for (int a = 0; a < dim; ++a) s[1 + a] += m[p] * x[dim * p + a], s[1 + dim + a] += m[p] * v[dim * p + a];
+  }
+  MPI_Allreduce(first.data(), first_all.data(), static_cast<int>(first.size()), MPI_DOUBLE, MPI_SUM, comm_);
+  std::vector<BodyMotion> motion(bodies);
+  for (std::size_t b = 0; b < bodies; ++b) {
+    const double* s = first_all.data() + b * (1 + 2 * dim);
+    const double mass = s[0] > 0 ? s[0] : 1.0;
+    for (int a = 0; a < dim; ++a) motion[b].centre[a] = s[1 + a] / mass, motion[b].velocity[a] = s[1 + dim + a] / mass;
+  }
+  // Angular momentum L (3) and inertia tensor (9) per body, in 3D
+  // components (2D: in the plane, L and I about z).
+  std::vector<double> second(bodies * 12, 0.0), second_all(second.size());
+  for (PetscInt p = 0; p < n; ++p) {
+    Eigen::Vector3d r = Eigen::Vector3d::Zero(), u = Eigen::Vector3d::Zero();
+    for (int a = 0; a < dim; ++a)
+      r[a] = x[dim * p + a] - motion[body[p]].centre[a], u[a] = v[dim * p + a] - motion[body[p]].velocity[a];
+    double* s = second.data() + body[p] * 12;
+    Eigen::Map<Eigen::Vector3d>(s) += m[p] * r.cross(u);
+    Eigen::Map<Eigen::Matrix3d>(s + 3) += m[p] * (r.squaredNorm() * Eigen::Matrix3d::Identity() - r * r.transpose());
+  }
+  MPI_Allreduce(second.data(), second_all.data(), static_cast<int>(second.size()), MPI_DOUBLE, MPI_SUM, comm_);
+  for (std::size_t b = 0; b < bodies; ++b) {
+    const Eigen::Map<const Eigen::Vector3d> L(second_all.data() + b * 12);
+    const Eigen::Map<const Eigen::Matrix3d> I(second_all.data() + b * 12 + 3);
+    motion[b].angular_velocity.setZero();
+    if constexpr (dim == 2) {
+      if (I(2, 2) > 0) motion[b].angular_velocity[2] = L[2] / I(2, 2);
+    } else {
+      // A body of one particle (or collinear ones) has a singular inertia:
+      // the least-squares rotation.
+      motion[b].angular_velocity = I.completeOrthogonalDecomposition().solve(L);
+    }
+  }
+  return motion;
+}
+
+template <int dim>
+std::vector<std::string> Simulation<dim>::body_motion_columns() const {
+  std::vector<std::string> columns;
+  for (const BodyConfig& b : config_.bodies) {
+    for (int a = 0; a < dim; ++a) columns.push_back(b.name + "_" + "xyz"[a] + " [m]");
+    for (int a = 0; a < dim; ++a) columns.push_back(b.name + "_v" + "xyz"[a] + " [m/s]");
+    if (dim == 2)
+      columns.push_back(b.name + "_omega [rad/s]");
+    else
+      for (int a = 0; a < 3; ++a) columns.push_back(b.name + "_omega_" + "xyz"[a] + " [rad/s]");
+  }
+  return columns;
+}
+
+template <int dim>
+std::vector<double> Simulation<dim>::body_motion_row() const {
+  std::vector<double> row;
+  for (const BodyMotion& m : body_motion()) {
+    for (int a = 0; a < dim; ++a) row.push_back(m.centre[a]);
+    for (int a = 0; a < dim; ++a) row.push_back(m.velocity[a]);
+    if (dim == 2)
+      row.push_back(m.angular_velocity[2]);
+    else
+      for (int a = 0; a < 3; ++a) row.push_back(m.angular_velocity[a]);
+  }
+  return row;
+}
+
+template std::vector<Simulation<2>::BodyMotion> Simulation<2>::body_motion() const;
+template std::vector<Simulation<3>::BodyMotion> Simulation<3>::body_motion() const;
+template std::vector<std::string> Simulation<2>::body_motion_columns() const;
+template std::vector<std::string> Simulation<3>::body_motion_columns() const;
+template std::vector<double> Simulation<2>::body_motion_row() const;
+template std::vector<double> Simulation<3>::body_motion_row() const;
 
 template void Simulation<2>::record_contact_forces(const std::vector<ContactPoint<2>>&, const std::vector<Vector<2>>&,
                                                   const std::vector<NaturalMap<2>>&, double);

@@ -185,6 +185,9 @@ RunSummary Simulation<dim>::run_steps(std::ostream* progress, const ProgressOpti
     row.push_back(energy_balance_error());
     return row;
   };
+  // The bodies' rigid-body motion at every step (docs/output.md#bodiescsv).
+  std::unique_ptr<ObstacleForceTable> body_table;
+  const std::string bodies_path = config_.output.directory + "/bodies.csv";
   if (resume_) {
     summary.steps_before = resume_->steps;
     summary.cutbacks_before = resume_->cutbacks;
@@ -213,9 +216,12 @@ RunSummary Simulation<dim>::run_steps(std::ostream* progress, const ProgressOpti
     if (obstacle_output)
       forces = std::make_unique<ObstacleForceTable>(comm_, forces_path, force_columns(), time_, &note);
     if (vtk) {
-      std::string energy_note;
+      std::string energy_note, bodies_note;
       energy_table = std::make_unique<ObstacleForceTable>(comm_, energy_path, energy_columns, time_, &energy_note);
+      body_table =
+          std::make_unique<ObstacleForceTable>(comm_, bodies_path, body_motion_columns(), time_, &bodies_note);
       if (note.empty()) note = energy_note;
+      if (note.empty()) note = bodies_note;
     }
     if (!note.empty()) log.message("  " + note);
   } else {
@@ -230,6 +236,9 @@ RunSummary Simulation<dim>::run_steps(std::ostream* progress, const ProgressOpti
       }
       energy_table = std::make_unique<ObstacleForceTable>(comm_, energy_path, energy_columns);
       guarded("appending to energy.csv", [&] { energy_table->append(time_, energy_row()); });
+      body_table = std::make_unique<ObstacleForceTable>(comm_, bodies_path, body_motion_columns());
+      const std::vector<double> row = body_motion_row();  // collective
+      guarded("appending to bodies.csv", [&] { body_table->append(time_, row); });
     }
     if (grid_vtk) record_initial_grid_points();  // t = 0: the P2G state
     if (vtk) write_output();
@@ -368,6 +377,10 @@ RunSummary Simulation<dim>::run_steps(std::ostream* progress, const ProgressOpti
     if (!obstacles_.empty()) loads_.add_step(step_start, time_, force_row());
     if (forces) guarded("appending to obstacle_forces.csv", [&] { forces->append(time_, force_table_row()); });
     if (energy_table) guarded("appending to energy.csv", [&] { energy_table->append(time_, energy_row()); });
+    if (body_table) {
+      const std::vector<double> row = body_motion_row();  // collective
+      guarded("appending to bodies.csv", [&] { body_table->append(time_, row); });
+    }
     const bool last = time_ >= tc.end - eps;
     const bool due = time_ >= next_output - eps || last;
     if (vtk && due) {

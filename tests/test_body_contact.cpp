@@ -365,3 +365,76 @@ TEST_CASE("bodies in contact: a restart repeats the uninterrupted run", "[bodies
   MPI_Barrier(PETSC_COMM_WORLD);
   if (rank == 0) std::filesystem::remove_all(dir);
 }
+
+// The force on an obstacle is told apart by velocity field (the fifth block
+// of obstacle_forces.csv): two blocks with their own fields resting on a
+// floor each press on it with their own weight, and the parts sum to the
+// obstacle's total.
+TEST_CASE("the force on an obstacle by body: each block's weight", "[bodies][contact][mpi]") {
+  CaseConfig c = testing::case_from_yaml(
+      "grid: {lower: [0, 0], upper: [1.2, 0.6], cell_size: 0.05}\n"
+      "time: {end: 1, step: 0.01}\n"
+      "output: {enabled: false}\n"
+      "gravity: [0, -9.81]\n"
+      "materials: [" + rock + "]\n"
+      "bodies: [{name: left, material: rock, box: {lower: [0.2, 0.1], upper: [0.5, 0.3]}},\n"
+      "         {name: right, material: rock, box: {lower: [0.7, 0.1], upper: [0.9, 0.5]}}]\n"
+      "contact: {bodies: [{pair: [left, right], friction: 0.3}]}\n"
+      "obstacles: [{name: floor, type: half_plane, point: [0, 0.1], normal: [0, 1], friction: 0.5}]\n"
+      "boundaries: {x_min: free, x_max: free, y_min: free, y_max: free}\n");
+  Simulation<2> sim(c, PETSC_COMM_WORLD);
+  const double left = body_mean(sim.particles(), field::position, 0).second * g;
+  const double right = body_mean(sim.particles(), field::position, 1).second * g;
+  for (int k = 0; k < 30; ++k) REQUIRE(sim.advance(0.01).converged);
+  const auto& total = sim.obstacle_forces();
+  const auto& by_field = sim.obstacle_forces_by_field();
+  REQUIRE(total.size() == 1);
+  REQUIRE(by_field.size() == 2);
+  INFO("weights " << left << ", " << right << " N/m; on the floor " << by_field[0].transpose() << " and "
+                  << by_field[1].transpose() << ", total " << total[0].transpose());
+  // At rest after 0.3 s (backward Euler damps the landing's vibration): the
+  // floor carries each block's weight, to 1e-6 of it.
+  CHECK(std::abs(by_field[0][1] - left) <= 1e-6 * left);
+  CHECK(std::abs(by_field[1][1] - right) <= 1e-6 * right);
+  CHECK((by_field[0] + by_field[1] - total[0]).norm() <= 1e-12 * (left + right));
+}
+
+// bodies.csv's rigid-body motion: particles given a rigid motion
+// v = V + omega x (x - X) give back V, omega and the centre of mass X
+// (exact for a rigid motion: to round-off), 2D and 3D.
+template <int dim>
+void check_rigid_motion() {
+  const std::string lo = dim == 2 ? "[0, 0]" : "[0, 0, 0]", hi = dim == 2 ? "[1, 1]" : "[1, 1, 1]";
+  const std::string blo = dim == 2 ? "[0.2, 0.3]" : "[0.2, 0.3, 0.1]", bhi = dim == 2 ? "[0.7, 0.5]" : "[0.7, 0.5, 0.4]";
+  Simulation<dim> sim(testing::case_from_yaml("grid: {lower: " + lo + ", upper: " + hi + ", cell_size: 0.1}\n"
+                                              "time: {end: 1, step: 0.01}\noutput: {enabled: false}\n"
+                                              "materials: [" + rock + "]\n"
+                                              "bodies: [{name: a, material: rock, box: {lower: " + blo + ", upper: " + bhi + "}}]\n"),
+                      PETSC_COMM_WORLD);
+  const Vector<dim> X = body_mean(sim.particles(), field::position, 0).first;
+  Vector<dim> V;
+  Eigen::Vector3d omega(0.0, 0.0, 2.5);
+  for (int a = 0; a < dim; ++a) V[a] = 0.3 * (a + 1);
+  if (dim == 3) omega = Eigen::Vector3d(-1.0, 0.5, 2.5);
+  {
+    FieldView<PetscReal> x(sim.particles().swarm(), field::position), v(sim.particles().swarm(), field::velocity);
+    for (PetscInt p = 0; p < sim.particles().local_count(); ++p) {
+      Eigen::Vector3d r = Eigen::Vector3d::Zero();
+      for (int a = 0; a < dim; ++a) r[a] = x[dim * p + a] - X[a];
+      const Eigen::Vector3d u = omega.cross(r);
+      for (int a = 0; a < dim; ++a) v[dim * p + a] = V[a] + u[a];
+    }
+  }
+  const auto motion = sim.body_motion();
+  REQUIRE(motion.size() == 1);
+  INFO(dim << "D: centre " << motion[0].centre.transpose() << ", velocity " << motion[0].velocity.transpose()
+           << ", angular velocity " << motion[0].angular_velocity.transpose());
+  CHECK((motion[0].centre - X).norm() <= 1e-14);
+  CHECK((motion[0].velocity - V).norm() <= 1e-13);
+  CHECK((motion[0].angular_velocity - omega).norm() <= 1e-12);
+}
+
+TEST_CASE("bodies.csv: centre, velocity and angular velocity of a rigid motion", "[bodies][output][mpi]") {
+  check_rigid_motion<2>();
+  check_rigid_motion<3>();
+}

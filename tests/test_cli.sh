@@ -935,7 +935,7 @@ snapshot() { (cd "$1" && find . -type f -print0 | sort -z | xargs -0 md5sum); }
 parent_before=$(snapshot obs_full)
 sed -e "s#directory: $work/obs#directory: $work/branch#" -e 's/end: 0.2/end: 0.3/' obs.yaml > branch.yaml
 "$talus" run branch.yaml --restart obs_full/checkpoint_000007.h5 > branch.log 2>&1 || { echo "FAIL: branch"; cat branch.log; exit 1; }
-grep -q "branch of the run in obs_full: 10 files of its 2 outputs up to the checkpoint hard-linked, 2 copied" branch.log ||
+grep -q "branch of the run in obs_full: 10 files of its 2 outputs up to the checkpoint hard-linked, 3 copied" branch.log ||
   { echo "FAIL: branch note"; cat branch.log; exit 1; }
 [ "$(snapshot obs_full)" = "$parent_before" ] || { echo "FAIL: the branch changed its parent's directory"; exit 1; }
 sed -e "s#directory: $work/branch#directory: $work/branch2#" -e 's/end: 0.3/end: 0.25/' branch.yaml > branch2.yaml
@@ -975,16 +975,16 @@ assert series("branch3", "particles")[0][1] == "particles_000002.pvtu"
 # branch repeats the straight run to 0.2 s, row for row.
 for f in ("particles_000001.pvtu", "particles_000001_0.vtu", "contacts_000000_0.vtu", "obstacles_000001.vtp"):
     assert os.stat(os.path.join(work, "branch", f)).st_ino == os.stat(os.path.join(work, "obs_full", f)).st_ino, f
-for table in ("obstacle_forces.csv", "energy.csv"):
+for table in ("obstacle_forces.csv", "energy.csv", "bodies.csv"):
     parent = list(csv.reader(open(os.path.join(work, "obs_full", table))))
     branch = list(csv.reader(open(os.path.join(work, "branch", table))))
-    steps = 30 if table == "obstacle_forces.csv" else 31                # energy.csv has a row for t = 0
+    steps = 30 if table == "obstacle_forces.csv" else 31                # energy.csv and bodies.csv have a row for t = 0
     assert len(branch) == steps + 1 and branch[:len(parent)] == parent, (table, len(branch), len(parent))
 print(f"cli ok: branches: {checked} files listed in their .pvd series, each opened; parent unchanged, outputs hard-linked")
 PY
 
 # Re-running into a directory that holds an older run (the obstacle case's
-# 33 files: 3 checkpoints, 3 series of 5 outputs, 2 tables): refused with
+# 34 files: 3 checkpoints, 3 series of 5 outputs, 3 tables): refused with
 # exit 2 naming the key, its line and the directory, and nothing written; with
 # --overwrite the older run's files go (a file of the user's stays), so the
 # directory holds exactly the new run's files. A branch into a used
@@ -995,7 +995,7 @@ set +e
 "$talus" run again.yaml > again.log 2>&1
 code=$?
 set -e
-[ "$code" -eq 2 ] && grep -q "talus: error: again.yaml:3: output.directory = $work/obs_full: holds the files of an older run: checkpoint_000007.h5, checkpoint_000014.h5, checkpoint_000020.h5, contacts.pvd, ... (33 files)" again.log ||
+[ "$code" -eq 2 ] && grep -q "talus: error: again.yaml:3: output.directory = $work/obs_full: holds the files of an older run: bodies.csv, checkpoint_000007.h5, checkpoint_000014.h5, checkpoint_000020.h5, ... (34 files)" again.log ||
   { echo "FAIL: re-run into a used directory: exit $code"; cat again.log; exit 1; }
 [ "$(snapshot obs_full)" = "$before" ] || { echo "FAIL: a refused re-run wrote into the directory"; exit 1; }
 set +e
@@ -1009,7 +1009,7 @@ echo "keep me" > obs_full/notes.txt
 /usr/bin/python3 - "$work/obs_full" <<'PY'
 import os, sys, xml.etree.ElementTree as ET
 out = sys.argv[1]
-expected = {"notes.txt", "energy.csv", "obstacle_forces.csv", "checkpoint_000007.h5", "checkpoint_000010.h5"}
+expected = {"notes.txt", "energy.csv", "obstacle_forces.csv", "bodies.csv", "checkpoint_000007.h5", "checkpoint_000010.h5"}
 for name in ("particles", "contacts", "obstacles"):
     expected.add(name + ".pvd")
     for e in ET.parse(os.path.join(out, name + ".pvd")).getroot().iter("DataSet"):

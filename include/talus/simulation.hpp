@@ -140,6 +140,21 @@ class Simulation {
   // sum_i r_i / h (N, per unit thickness in 2D), summed over all ranks; the
   // force the body exerts on the obstacle is its negative.
   const std::vector<Vector<dim>>& obstacle_forces() const { return obstacle_force_; }
+  // With bodies in contact (several velocity fields): the force of field f's
+  // bodies on obstacle o at the last step, [o * fields + f], on the body as
+  // obstacle_forces() (docs/output.md#obstacle_forcescsv-the-force-on-each-obstacle).
+  const std::vector<Vector<dim>>& obstacle_forces_by_field() const { return obstacle_field_force_; }
+  // The rigid-body motion of each body (all ranks; docs/output.md#bodiescsv):
+  // centre of mass, its velocity (the mean velocity) and the angular velocity
+  // omega = I^-1 sum_p m_p (x_p - X) x v_p about it (in 2D the scalar about
+  // the out-of-plane axis), exact for a rigid motion.
+  struct BodyMotion {
+    Vector<dim> centre, velocity;
+    Eigen::Vector3d angular_velocity;  // (0, 0, omega) in 2D
+  };
+  std::vector<BodyMotion> body_motion() const;
+  std::vector<std::string> body_motion_columns() const;  // bodies.csv's columns after time
+  std::vector<double> body_motion_row() const;           // collective
   // The loads on the obstacles since t = 0, on the obstacles (-obstacle_forces()):
   // impulses, their running totals, the window-averaged force and its peak.
   const ObstacleLoads& obstacle_loads() const { return loads_; }
@@ -222,6 +237,7 @@ class Simulation {
   std::vector<Tangent> compliance_;  // C^-1 per material (the energy balance)
   std::vector<Obstacle<dim>> obstacles_;
   std::vector<Vector<dim>> obstacle_force_;
+  std::vector<Vector<dim>> obstacle_field_force_;  // [obstacle * fields + field], several fields only
   ObstacleLoads loads_{0, dim, 0.0};  // set for the obstacles in the constructor
   std::vector<NodalContact> nodal_contacts_;
   PointCloud grid_points_;

@@ -24,7 +24,7 @@ const std::regex& series_file() {
 const std::regex& talus_file() {
   static const std::regex re(
       "((particles|obstacles|contacts|grid)(\\.pvd|_[0-9]{6,}(_[0-9]+)?\\.(pvtu|vtu|vtp))"
-      "|(energy|obstacle_forces)\\.csv(\\.old)?|checkpoint_[0-9]{6,}\\.h5)(\\.tmp)?|\\.staging_.*");
+      "|(energy|obstacle_forces|bodies)\\.csv(\\.old)?|checkpoint_[0-9]{6,}\\.h5)(\\.tmp)?|\\.staging_.*");
   return re;
 }
 
@@ -145,7 +145,7 @@ ContinuedSeries continue_series(const std::string& earlier, const std::string& d
     long linked = 0, copied = 0;
     for (const std::string& name : talus_files(earlier)) {
       const long number = output_number(name);
-      const bool table = name == "energy.csv" || name == "obstacle_forces.csv";
+      const bool table = name == "energy.csv" || name == "obstacle_forces.csv" || name == "bodies.csv";
       if (!table && !(number >= 0 && listed.count(number))) continue;
       const fs::path from = fs::path(earlier) / name, to = fs::path(directory) / name;
       std::error_code ec;
