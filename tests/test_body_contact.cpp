@@ -438,3 +438,81 @@ TEST_CASE("bodies.csv: centre, velocity and angular velocity of a rigid motion",
   check_rigid_motion<2>();
   check_rigid_motion<3>();
 }
+
+// A stiff rock (E = 5e10 Pa, 430 times its explicit step) sliding on a
+// Drucker-Prager soil layer runs at the soft rock's step: no cut-back, and
+// at most 1.5 times its Newton iterations per step (measured 3.0 against
+// 3.4 over 0.3 s, 3.8 against 3.3 over 0.5 s); it slides at
+// g (sin - mu cos) either way.
+TEST_CASE("a stiff rock slides on soil at the step of a soft one", "[bodies][contact]") {
+  const auto rock_case = [](const std::string& modulus) {
+    return testing::case_from_yaml(
+        "grid: {lower: [0.0, 0.0], upper: [2.0, 0.6], cell_size: 0.05}\n"
+        "time: {end: 1, step: 0.005}\n"
+        "output: {enabled: false}\n"
+        "gravity: [" + std::to_string(g * std::sin(25 * pi / 180)) + ", " + std::to_string(-g * std::cos(25 * pi / 180)) + "]\n"
+        "materials: [{name: soil, model: drucker_prager, density: 1800, youngs_modulus: 2.0e7, poisson_ratio: 0.3,\n"
+        "             friction_angle: 30, dilatancy_angle: 0, cohesion: 2000},\n"
+        "            {name: granite, model: linear_elastic, density: 2700, youngs_modulus: " + modulus + ", poisson_ratio: 0.25}]\n"
+        "bodies: [{name: soil, material: soil, box: {lower: [0.0, 0.0], upper: [2.0, 0.2]}},\n"
+        "         {name: rock, material: granite, box: {lower: [0.2, 0.2], upper: [0.6, 0.4]}}]\n"
+        "contact: {bodies: [{pair: [rock, soil], friction: 0.2}]}\n"
+        "boundaries: {x_min: fixed, x_max: fixed, y_min: fixed, y_max: free}\n");
+  };
+  const double t_end = 0.3, a = g * (std::sin(25 * pi / 180) - 0.2 * std::cos(25 * pi / 180));
+  double newton_per_step[2], speed[2];
+  const char* moduli[2] = {"5.0e10", "2.0e7"};
+  for (int k = 0; k < 2; ++k) {
+    Simulation<2> sim(rock_case(moduli[k]), PETSC_COMM_WORLD);
+    long newton = 0, steps = 0;
+    while (sim.time() < t_end - 1e-12) {
+      const StepReport r = sim.advance(0.005);
+      INFO("E = " << moduli[k] << ", t = " << sim.time() << ": " << r.newton.reason);
+      REQUIRE(r.converged);  // no cut-back needed
+      newton += r.newton.iterations;
+      ++steps;
+    }
+    newton_per_step[k] = double(newton) / steps;
+    speed[k] = body_mean(sim.particles(), field::velocity, 1).first[0];
+  }
+  INFO("Newton iterations per step: E = 5e10 " << newton_per_step[0] << ", E = 2e7 " << newton_per_step[1]
+                                                << "; speeds " << speed[0] << ", " << speed[1] << " (a t = " << a * t_end << ")");
+  CHECK(newton_per_step[0] <= 1.5 * newton_per_step[1]);
+  CHECK(std::abs(speed[0] - a * t_end) <= 0.01 * a * t_end);
+  CHECK(std::abs(speed[1] - a * t_end) <= 0.01 * a * t_end);
+}
+
+// A rock (granite, E = 5e10 Pa: its explicit step is 1.1e-5 s, 450 times
+// below h) slides down a 30-degree half-plane not aligned with the grid
+// (inputs/incline_block.yaml's geometry), mu = 0.3, run with the step
+// controller: 0.5 g (sin - mu cos) t^2 to 2 % and the time-discrete value
+// 0.5 a t^2 (1 + h / t) to 0.5 % (a cut-back shortens a few steps; measured
+// 0.04 %), with at most 8 cut-backs in 100 steps (measured 5, and 3 with
+// outputs every 0.05 s; 6.9 Newton iterations per step; the soft block of
+// tests/test_contact_dynamics.cpp needs none: a nearly rigid block's contact
+// points change all at once when its staircase of particles crosses a cell).
+TEST_CASE("a stiff rock slides down an incline at the closed form", "[bodies][contact]") {
+  const double theta = 30 * pi / 180, mu = 0.3, h = 0.005, t_end = 0.5;
+  CaseConfig c = testing::case_from_yaml(
+      "grid: {lower: [0.0, 0.0], upper: [2.0, 1.4], cell_size: 0.05}\n"
+      "time: {end: 0.5, step: 0.005}\n"
+      "output: {enabled: false}\n"
+      "gravity: [0.0, -9.81]\n"
+      "materials: [{name: granite, model: linear_elastic, density: 2700, youngs_modulus: 5.0e10, poisson_ratio: 0.25}]\n"
+      "bodies: [{name: rock, material: granite, polygon: [[1.2258, 0.75], [1.5722, 0.95], [1.4722, 1.1232], [1.1258, 0.9232]]}]\n"
+      "obstacles: [{name: incline, type: half_plane, point: [0.1, 0.1], normal: [-0.5, 0.8660254], friction: 0.3}]\n"
+      "boundaries: {x_min: free, x_max: free, y_min: free, y_max: free}\n");
+  Simulation<2> sim(c, PETSC_COMM_WORLD);
+  const Vector<2> x0 = body_mean(sim.particles(), field::position, 0).first;
+  const RunSummary s = sim.run(nullptr);
+  REQUIRE(s.status == RunStatus::completed);
+  const Vector<2> d = body_mean(sim.particles(), field::position, 0).first - x0;
+  const double slide = -(d[0] * std::cos(theta) + d[1] * std::sin(theta));
+  const double a = g * (std::sin(theta) - mu * std::cos(theta));
+  const double closed = 0.5 * a * t_end * t_end, discrete = closed * (1.0 + h / t_end);
+  INFO("slide " << slide << " m, closed form " << closed << ", time-discrete " << discrete << " m; " << s.steps
+                << " steps, " << s.cutbacks << " cut-backs, " << double(s.newton_iterations) / s.steps << " Newton per step");
+  CHECK(std::abs(slide - closed) <= 0.02 * closed);
+  CHECK(std::abs(slide - discrete) <= 0.005 * discrete);
+  CHECK(s.cutbacks <= 8);
+}

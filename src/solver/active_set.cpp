@@ -21,13 +21,19 @@ void ActiveSet<dim>::build(const Grid<dim>& grid, const GridFields<dim>& fields,
                            const std::array<FaceCondition, 6>& faces) {
   destroy();
   comm_ = grid.comm();
-  // Nodes: one per ghosted point and velocity field (GridFields), field-major.
+  // Nodes: one per ghosted point and velocity field (GridFields), field-major
+  // (node f * points + i).
   const int points = grid.ghosted_count(), n = points * fields.field_count;
   compact_.assign(n, -1);
   owned_points_.clear();
   constrained_.assign(static_cast<std::size_t>(n) * dim, 0);
 
-  for (int i = 0; i < n; ++i) {
+  // The unknowns are numbered point by point, the fields of a point next to
+  // each other: a contact between fields then couples neighbours in the
+  // numbering, and the factors fill as with one field (numbered field by
+  // field, a 3D landslide with a boulder filled 25 times as much).
+  for (int k = 0; k < n; ++k) {
+    const int i = (k % fields.field_count) * points + k / fields.field_count;
     const auto ijk = grid.global_index(i % points);
     for (int a = 0; a < dim; ++a) {
       const FaceCondition lo = faces[2 * a], hi = faces[2 * a + 1];
