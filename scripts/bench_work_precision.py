@@ -23,6 +23,16 @@ Studies (--studies):
           1.25e-3, 6.25e-4 and 1.5625e-4 s, with theta = 1/2 at 5e-3, 2.5e-3
           and 1.25e-3 s; explicit at cfl 1, 0.5 and 0.25.
 
+  incline An elastic block (0.4 x 0.2 m, E = 2e7 Pa, nu = 0.3, rho = 2000)
+          sliding on a Coulomb incline: the grid aligned with a 30-degree
+          slope (gravity tilted), the floor a frictional face with mu = 0.3,
+          1 s from rest. Error: |d(1 s) - 0.5 a| / (0.5 a), d the slide of
+          the block's centre of mass (bodies.csv), a = g (sin 30 - mu cos 30)
+          = 2.356 m/s^2. Implicit theta = 1 at h = 0.04, 0.02, 0.01, 0.005
+          and 0.0025 s (backward Euler: error h / t), theta = 1/2 at 0.04
+          and 0.01 s (exact for a constant acceleration); explicit at cfl
+          0.5; cells 0.1, 0.05 and 0.025 m.
+
   settle  An elastic column settling under its own weight between slip walls
           on a fixed floor (0.5 m wide, 1 m high, E = 1 MPa, nu = 0.3,
           rho = 2000; uniaxial strain, so the exact Cauchy stress is
@@ -36,9 +46,10 @@ One run per configuration (the errors are deterministic; the CPU times are
 single runs, so differences under about 10 % are noise). Run it alone on the
 machine. Needs Debian's python3-vtk9 and python3-matplotlib:
 
-    /usr/bin/python3 scripts/bench_work_precision.py                 # all three studies, ~12 min
+    /usr/bin/python3 scripts/bench_work_precision.py                 # all four studies, ~14 min
     /usr/bin/python3 scripts/bench_work_precision.py --studies bar   # ~1 min
     /usr/bin/python3 scripts/bench_work_precision.py --studies settle # ~1 min
+    /usr/bin/python3 scripts/bench_work_precision.py --studies incline # ~2 min
 """
 import argparse
 import math
@@ -184,6 +195,60 @@ def column_study(talus, work):
     return rows
 
 
+# --- the block on a Coulomb incline -----------------------------------------
+
+INCLINE_DEG, INCLINE_MU, INCLINE_G, INCLINE_END = 30.0, 0.3, 9.81, 1.0
+
+
+def incline_case(work, label, cell, integrator, h, weight=1.0):
+    out = os.path.join(work, label)
+    shutil.rmtree(out, ignore_errors=True)
+    theta = math.radians(INCLINE_DEG)
+    time = (f"{{end: {INCLINE_END}, step: {h:.17g}, theta: {weight}}}" if integrator == "implicit"
+            else f"{{end: {INCLINE_END}, integrator: explicit}}")
+    case = os.path.join(work, label + ".yaml")
+    with open(case, "w") as f:
+        f.write(f"grid: {{lower: [0, 0], upper: [3.0, 0.4], cell_size: {cell}}}\n"
+                f"time: {time}\n"
+                f"output: {{directory: {out}, interval: {INCLINE_END}}}\n"
+                f"gravity: [{INCLINE_G * math.sin(theta):.17g}, {-INCLINE_G * math.cos(theta):.17g}]\n"
+                f"materials: [{{name: rock, model: linear_elastic, density: 2000, youngs_modulus: 2.0e7, "
+                f"poisson_ratio: 0.3}}]\n"
+                f"bodies: [{{name: block, material: rock, box: {{lower: [0.1, 0.0], upper: [0.5, 0.2]}}}}]\n"
+                f"boundaries: {{x_min: free, x_max: free, y_min: {{condition: frictional, friction: {INCLINE_MU}}}, "
+                f"y_max: free}}\n")
+    return case, out
+
+
+def incline_error(out):
+    import csv
+    rows = list(csv.reader(open(os.path.join(out, "bodies.csv"))))
+    first, last = rows[1], rows[-1]
+    slide = float(last[1]) - float(first[1])
+    theta = math.radians(INCLINE_DEG)
+    exact = 0.5 * INCLINE_G * (math.sin(theta) - INCLINE_MU * math.cos(theta)) * INCLINE_END ** 2
+    return abs(slide - exact) / exact
+
+
+def incline_study(talus, work):
+    rows = []
+    for cell in (0.1, 0.05, 0.025):
+        configs = ([("implicit", h, 1.0) for h in (0.04, 0.02, 0.01, 0.005, 0.0025)] +
+                   [("implicit", h, 0.5) for h in (0.04, 0.01)] + [("explicit", None, None)])
+        for integrator, h, weight in configs:
+            name = f"implicit theta {weight:g}" if integrator == "implicit" else "explicit, cfl 0.5"
+            label = f"incline_{cell:g}_{integrator}_{h}_{weight}"
+            case, out = incline_case(work, label, cell, integrator, h, weight)
+            cpu, s = run_talus_case(talus, case)
+            err = incline_error(out)
+            rows.append({"study": "incline", "config": f"{name}, cell {cell:g}", "cells": round(0.4 / cell),
+                         "h": INCLINE_END / s["steps"], "steps": s["steps"], "newton": s["newton_iterations"],
+                         "cpu": cpu, "error": err})
+            print(f"incline cell {cell:g} {name:20s} h {INCLINE_END / s['steps']:.3e}: {cpu:6.2f} s, "
+                  f"{s['steps']} steps, error {err:.3e}", flush=True)
+    return rows
+
+
 # --- the settling elastic column --------------------------------------------
 
 SETTLE_H, SETTLE_RHO, SETTLE_G, SETTLE_END = 1.0, 2000.0, 9.81, 2.0
@@ -249,16 +314,18 @@ def plot(rows, path):
         groups = {}
         for r in rows:
             if r["study"] == study and r["error"] == r["error"]:
-                key = r["config"] if study in ("bar", "settle") else r["config"].split(", h")[0].split(", cfl")[0]
+                key = r["config"] if study in ("bar", "settle", "incline") else r["config"].split(", h")[0].split(", cfl")[0]
                 groups.setdefault(key, []).append(r)
         for key, rs in sorted(groups.items()):
             rs.sort(key=lambda r: r["cpu"])
             ax.loglog([r["cpu"] for r in rs], [r["error"] for r in rs], "o-", label=key)
         ax.set_xlabel("CPU time (s)")
         ax.set_ylabel({"bar": "relative error of v_cm", "column": "|dL_99| + |dH_wall| (m)",
-                       "settle": "RMS sigma_yy error / (rho g H)"}[study])
+                       "settle": "RMS sigma_yy error / (rho g H)",
+                       "incline": "relative error of the slide at 1 s"}[study])
         ax.set_title({"bar": "vibrating bar (16-128 cells)", "column": "reference column, mu = 0.4",
-                      "settle": "elastic column settling, 10-40 cells high, t = 2 s"}[study])
+                      "settle": "elastic column settling, 10-40 cells high, t = 2 s",
+                      "incline": "block on a 30-degree Coulomb incline, mu = 0.3"}[study])
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=8)
     fig.tight_layout()
@@ -268,7 +335,8 @@ def plot(rows, path):
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--talus", default=os.path.join(REPO, "build", "talus"))
-    ap.add_argument("--studies", nargs="+", default=["bar", "settle", "column"], choices=["bar", "settle", "column"])
+    ap.add_argument("--studies", nargs="+", default=["bar", "settle", "incline", "column"],
+                    choices=["bar", "settle", "incline", "column"])
     ap.add_argument("--out", default=os.path.join(REPO, "bench_results", "work_precision"))
     args = ap.parse_args()
     os.makedirs(args.out, exist_ok=True)
@@ -277,6 +345,8 @@ def main():
         rows += bar_study(args.talus, args.out)
     if "settle" in args.studies:
         rows += settle_study(args.talus, args.out)
+    if "incline" in args.studies:
+        rows += incline_study(args.talus, args.out)
     if "column" in args.studies:
         rows += column_study(args.talus, args.out)
     columns = [("study", "study", "{}"), ("config", "configuration", "{}"), ("cells", "cells", "{}"),
