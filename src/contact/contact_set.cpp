@@ -205,69 +205,84 @@ std::vector<BodyContactPoint<dim>> find_body_contacts(const Grid<dim>& grid, con
                                                       const std::vector<ContactPoint<dim>>& obstacle_contacts,
                                                       double h) {
   std::vector<BodyContactPoint<dim>> contacts;
-  if (fields.field_count < 2) return contacts;
+  const int F = fields.field_count;
+  if (F < 2) return contacts;
   const int points = grid.ghosted_count();
-  // The pair at every ghosted point (ghost points too: the gaps below need
-  // the normal wherever a particle's support reaches): the two heaviest
-  // active fields, a the lower-numbered.
-  std::vector<std::array<int, 2>> pair(points, {-1, -1});
-  for (int i = 0; i < points; ++i) {
-    int first = -1, second = -1;
-    for (int f = 0; f < fields.field_count; ++f) {
+  // The hub of every ghosted point (ghost points too: the gaps below need
+  // the normals wherever a particle's support reaches): its heaviest active
+  // field. Every other active field x there is paired with the hub (x's row
+  // takes the natural map, the hub's the point's total balance), so any
+  // number of fields can meet at a point.
+  std::vector<int> hub(points, -1), count(points, 0);
+  for (int i = 0; i < points; ++i)
+    for (int f = 0; f < F; ++f) {
       const int node = f * points + i;
       if (active.compact_index(node) < 0) continue;
-      if (first < 0 || fields.mass[node] > fields.mass[first * points + i])
-        second = first, first = f;
-      else if (second < 0 || fields.mass[node] > fields.mass[second * points + i])
-        second = f;
+      ++count[i];
+      if (hub[i] < 0 || fields.mass[node] > fields.mass[hub[i] * points + i]) hub[i] = f;
     }
-    if (second >= 0) pair[i] = {std::min(first, second), std::max(first, second)};
-  }
   const std::vector<double> gradient = volume_gradients(grid, particles, stencils, fields);
   // Each field's volume, all ranks: which body of a pair is the larger.
-  std::vector<double> volume(fields.field_count, 0.0);
+  std::vector<double> volume(F, 0.0);
   {
-    std::vector<double> local(fields.field_count, 0.0);
+    std::vector<double> local(F, 0.0);
     FieldView<PetscReal> v0(particles.swarm(), field::initial_volume);
     for (std::size_t p = 0; p < stencils.size(); ++p) local[stencils[p].local[0] / points] += v0[p];
-    MPI_Allreduce(local.data(), volume.data(), fields.field_count, MPI_DOUBLE, MPI_SUM, grid.comm());
+    MPI_Allreduce(local.data(), volume.data(), F, MPI_DOUBLE, MPI_SUM, grid.comm());
   }
-  std::vector<Vector<dim>> normal(points, Vector<dim>::Zero());
+  // The normal of the pair (x, hub) at point i, out of x's body, on x's
+  // node (zero: not a contact point).
+  std::vector<Vector<dim>> normal(static_cast<std::size_t>(points) * F, Vector<dim>::Zero());
   for (int i = 0; i < points; ++i) {
-    if (pair[i][0] < 0) continue;
-    const Eigen::Map<const Vector<dim>> ga(gradient.data() + static_cast<std::size_t>(dim) * (pair[i][0] * points + i)),
-        gb(gradient.data() + static_cast<std::size_t>(dim) * (pair[i][1] * points + i));
-    // sum_p V_p grad N_i(x_p) points out of a body at its surface (N_i grows
-    // as a particle moves towards the point). Two bodies touch where their
-    // outward directions oppose each other; at a block's corner on a flat
-    // base they are 45 degrees apart (the block's is the corner's diagonal):
-    // such points are not contact points (the next row, where the surfaces
-    // oppose, holds the bodies apart). The normal is that of the larger body
-    // of the two, whose surface is the flatter one at the contact (the base
-    // under a block, the slope under a boulder, the debris around a rock):
-    // the smaller body's, or an average, tilts near its edges, and a tilted
-    // normal is a ramp that stops a sliding block or launches it.
-    if (!(ga.norm() > 0.0 && gb.norm() > 0.0)) continue;
-    if (-ga.normalized().dot(gb.normalized()) < std::cos(opposed_angle)) continue;
-    normal[i] = volume[pair[i][0]] >= volume[pair[i][1]] ? Vector<dim>(ga.normalized()) : Vector<dim>(-gb.normalized());
+    if (count[i] < 2) continue;
+    const int b = hub[i] * points + i;
+    const Eigen::Map<const Vector<dim>> gb(gradient.data() + static_cast<std::size_t>(dim) * b);
+    for (int f = 0; f < F; ++f) {
+      const int a = f * points + i;
+      if (f == hub[i] || active.compact_index(a) < 0) continue;
+      const Eigen::Map<const Vector<dim>> ga(gradient.data() + static_cast<std::size_t>(dim) * a);
+      // sum_p V_p grad N_i(x_p) points out of a body at its surface (N_i grows
+      // as a particle moves towards the point). Two bodies touch where their
+      // outward directions oppose each other; at a block's corner on a flat
+      // base they are 45 degrees apart (the block's is the corner's diagonal):
+      // such points are not contact points (the next row, where the surfaces
+      // oppose, holds the bodies apart). The normal is that of the larger body
+      // of the two, whose surface is the flatter one at the contact (the base
+      // under a block, the slope under a boulder, the debris around a rock):
+      // the smaller body's, or an average, tilts near its edges, and a tilted
+      // normal is a ramp that stops a sliding block or launches it.
+        if (!(ga.norm() > 0.0 && gb.norm() > 0.0)) continue;
+      if (-ga.normalized().dot(gb.normalized()) < std::cos(opposed_angle)) continue;
+      normal[a] = volume[f] >= volume[hub[i]] ? Vector<dim>(ga.normalized()) : Vector<dim>(-gb.normalized());
+    }
   }
-  // The bodies' surfaces along the normal: a's front (the largest
-  // x_p . n + l_p / 2 of its particles) and b's back (the smallest
-  // x_q . n - l_q / 2), both as maxima over the particles around the point.
+  // The bodies' surfaces along each pair's normal: x's front (the largest
+  // x_p . n + e_p of its particles) on x's node, and the hub's back (the
+  // smallest x_q . n - e_q of its particles), one pass per paired field x,
+  // stored on x's node too; both as maxima over the particles around the point.
   FieldView<PetscReal> x(particles.swarm(), field::position), v0(particles.swarm(), field::initial_volume);
-  const auto surface = [&](int side) {
-    return node_maximum(grid, stencils, fields, [&, side](std::size_t p, int k) {
-      const int node = stencils[p].local[k], i = node % points;
-      if (pair[i][side] != node / points || normal[i].isZero(0.0)) return -none;
-      const double along = Eigen::Map<const Vector<dim>>(x.data() + dim * p).dot(normal[i]);
-      // Half the extent of the particle's cube (side l_p) along n.
-      const double half = 0.5 * std::pow(v0[p], 1.0 / dim) * normal[i].template lpNorm<1>();
-      return side == 0 ? along + half : -(along - half);
-    });
+  const auto extent = [&](std::size_t p, const Vector<dim>& n, double sign) {
+    // Along n, plus or minus half the extent of the particle's cube (side l_p).
+    return Eigen::Map<const Vector<dim>>(x.data() + dim * p).dot(n) +
+           sign * 0.5 * std::pow(v0[p], 1.0 / dim) * n.template lpNorm<1>();
   };
-  const std::vector<double> front = surface(0), back = surface(1);
+  const std::vector<double> front = node_maximum(grid, stencils, fields, [&](std::size_t p, int k) {
+    const Vector<dim>& n = normal[stencils[p].local[k]];
+    return n.isZero(0.0) ? -none : extent(p, n, 1.0);
+  });
+  std::vector<double> back(static_cast<std::size_t>(points) * F, none);
+  for (int f = 0; f < F; ++f) {
+    const std::vector<double> hub_back = node_maximum(grid, stencils, fields, [&](std::size_t p, int k) {
+      const int node = stencils[p].local[k], i = node % points;
+      const Vector<dim>& n = normal[f * points + i];
+      if (node / points != hub[i] || f == hub[i] || n.isZero(0.0)) return -none;
+      return -extent(p, n, -1.0);
+    });
+    for (int i = 0; i < points; ++i)
+      if (hub[i] >= 0 && f != hub[i]) back[f * points + i] = -hub_back[hub[i] * points + i];
+  }
 
-  std::vector<char> obstacle_node(static_cast<std::size_t>(points) * fields.field_count, 0);
+  std::vector<char> obstacle_node(static_cast<std::size_t>(points) * F, 0);
   for (const ContactPoint<dim>& cp : obstacle_contacts) obstacle_node[cp.point] = 1;
   PetscInt first = 0;
   {
@@ -277,8 +292,8 @@ std::vector<BodyContactPoint<dim>> find_body_contacts(const Grid<dim>& grid, con
   }
   for (const int node : active.owned_points()) {
     const int i = node % points;
-    if (node / points != pair[i][0] || normal[i].isZero(0.0)) continue;
-    const int a = node, b = pair[i][1] * points + i;
+    if (normal[node].isZero(0.0)) continue;  // the hub, or not a contact point
+    const int a = node, b = hub[i] * points + i;
     if (obstacle_node[a] || obstacle_node[b]) continue;
     bool constrained = false;
     for (int c = 0; c < dim; ++c) constrained |= active.constrained(a, c);
@@ -288,16 +303,15 @@ std::vector<BodyContactPoint<dim>> find_body_contacts(const Grid<dim>& grid, con
     cp.node_b = b;
     cp.row_a = dim * (active.compact_index(a) - first / dim);
     cp.row_b = dim * (active.compact_index(b) - first / dim);
-    cp.normal = normal[i];
-    const double front_a = front[a], back_b = -back[b];
-    cp.gap = back_b - front_a;
+    cp.normal = normal[a];
+    cp.gap = back[a] - front[a];
     const Eigen::Map<const Vector<dim>> va(fields.velocity.data() + static_cast<std::size_t>(dim) * a),
         vb(fields.velocity.data() + static_cast<std::size_t>(dim) * b);
     cp.start_normal_velocity = -(va - vb).dot(cp.normal);
     // Touching bodies have gap 0 up to round-off.
     const double tolerance = 1e-9 * grid.cell_size();
     if (cp.gap + config.gap_prediction * h * std::min(cp.start_normal_velocity, 0.0) > tolerance) continue;
-    cp.friction = config.field_friction(pair[i][0], pair[i][1]);
+    cp.friction = config.field_friction(a / points, hub[i]);
     cp.rho = fields.mass[a] * fields.mass[b] / (fields.mass[a] + fields.mass[b]);
     contacts.push_back(cp);
   }

@@ -45,7 +45,7 @@ struct ContactPoint {
 // point's total balance R_a + R_b = 0.
 template <int dim>
 struct BodyContactPoint {
-  int node_a = -1, node_b = -1;   // ghosted nodes (owned) of the two fields at the point
+  int node_a = -1, node_b = -1;   // ghosted nodes (owned) at the point: a field, and the point's heaviest (hub)
   PetscInt row_a = 0, row_b = 0;  // local offsets of their first components in the compact vector
   double gap = 0.0;               // the bodies' gap along the normal at t^n
   Vector<dim> normal;             // outward normal of body a: from a into b
@@ -73,9 +73,10 @@ std::vector<ContactPoint<dim>> find_contact_candidates(const Grid<dim>& grid, co
 // the particles around the point: min over b's particles of x_q . n - e_q
 // less max over a's of x_p . n + e_p (e half the extent of the particle's
 // initial cube along n), so contact closes when the bodies' surfaces meet,
-// not one or two cells early as with shared nodal mass alone. Where three
-// or more fields meet, the two heaviest are paired. Points that are obstacle
-// contacts or carry a constrained component are left out.
+// not one or two cells early as with shared nodal mass alone. At a point
+// the heaviest field is the hub and every other field there is paired with
+// it (a = that field, b = the hub): any number of fields can meet. Points
+// that are obstacle contacts or carry a constrained component are left out.
 template <int dim>
 std::vector<BodyContactPoint<dim>> find_body_contacts(const Grid<dim>& grid, const Particles<dim>& particles,
                                                       const std::vector<Stencil<dim>>& stencils,
