@@ -56,11 +56,13 @@ StepReport Simulation<dim>::advance_explicit(double h) {
   report.h = h;
   const double kinetic_start = local_particle_kinetic();
   const auto t0 = std::chrono::steady_clock::now();
-  // 1. Stencils at x^n and 2. P2G: m_i and v_i^n.
+  // 1. Stencils at x^n and 2. P2G: m_i and v_i^n (per velocity field with
+  // bodies in contact).
+  const ContactConfig& contact = config_.contact;
   std::vector<Stencil<dim>> stencils;
-  compute_stencils(*grid_, *particles_, stencils);
+  compute_stencils(*grid_, *particles_, stencils, contact.field_count > 1 ? contact.body_field : std::vector<int>());
   GridFields<dim> fields;
-  particles_to_grid(*grid_, *particles_, stencils, config_.transfer.scheme, fields);
+  particles_to_grid(*grid_, *particles_, stencils, config_.transfer.scheme, fields, contact.field_count);
   report.transfer_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
   const auto t1 = std::chrono::steady_clock::now();
@@ -71,9 +73,14 @@ StepReport Simulation<dim>::advance_explicit(double h) {
   report.active_points = active.global_count();
   std::vector<ContactPoint<dim>> contacts = find_contact_candidates(
       *grid_, *particles_, stencils, fields, active, obstacles_, time_, h, config_.contact.gap_prediction);
+  std::vector<BodyContactPoint<dim>> body_contacts =
+      find_body_contacts(*grid_, *particles_, stencils, fields, active, contact, contacts, h);
   {
-    PetscInt local = static_cast<PetscInt>(contacts.size());
-    MPI_Allreduce(&local, &report.contact_points, 1, MPIU_INT, MPI_SUM, comm_);
+    PetscInt local[2] = {static_cast<PetscInt>(contacts.size()), static_cast<PetscInt>(body_contacts.size())};
+    PetscInt global[2];
+    MPI_Allreduce(local, global, 2, MPIU_INT, MPI_SUM, comm_);
+    report.contact_points = global[0];
+    report.body_contact_points = global[1];
   }
   // theta = 1: the stress of the end of the step from L(v^{n+1}) (USL).
   MomentumSystem<dim> system(*grid_, *particles_, stencils, fields, active, materials_, gravity_, h, 1.0);
@@ -82,7 +89,7 @@ StepReport Simulation<dim>::advance_explicit(double h) {
   // 4. The internal force of the stresses at t^n, summed over ranks on the
   // owners: f_i = -sum_p V0_p tau_p^n grad N_i (the stored stress is
   // Kirchhoff's, so the initial volume; docs/formulation.md).
-  std::vector<double> force(static_cast<std::size_t>(grid_->ghosted_count()) * dim, 0.0);
+  std::vector<double> force(fields.mass.size() * dim, 0.0);
   {
     DM sw = particles_->swarm();
     FieldView<PetscReal> stress(sw, field::stress), volume(sw, field::initial_volume);
@@ -102,6 +109,7 @@ StepReport Simulation<dim>::advance_explicit(double h) {
   // 5. v^{n+1} = v^n + h (g + f / m) on the free components; faces hold
   // theirs at zero, obstacles project theirs onto the Coulomb cone.
   std::vector<Vector<dim>> impulses(contacts.size(), Vector<dim>::Zero());
+  std::vector<Vector<dim>> body_impulses(body_contacts.size(), Vector<dim>::Zero());
   std::vector<NaturalMap<dim>> regions(contacts.size());
   {
     PetscScalar* x;
@@ -128,6 +136,26 @@ StepReport Simulation<dim>::advance_explicit(double h) {
           impulses[c][a] = impulse[a];
         }
     }
+    // Bodies in contact (docs/contact.md#bodies-in-contact): the relative
+    // velocity u = v_a - v_b of a pair, when approaching, projected onto
+    // the Coulomb cone with the reduced mass (Bardenhagen et al. 2001), the
+    // impulse p given to a and -p to b: momentum is conserved. Pairs that
+    // share a hub are projected one after the other.
+    for (std::size_t c = 0; c < body_contacts.size(); ++c) {
+      const BodyContactPoint<dim>& bc = body_contacts[c];
+      ContactPoint<dim> cone;  // the cone seen from a: axis -n, no restitution
+      cone.normal = -bc.normal;
+      cone.friction = bc.friction;
+      cone.start_normal_velocity = bc.start_normal_velocity;
+      const double ma = fields.mass[bc.node_a], mb = fields.mass[bc.node_b];
+      Eigen::Map<Vector<dim>> va(x + bc.row_a), vb(x + bc.row_b);
+      Vector<dim> u = va - vb;
+      ConeRegion region;
+      const Vector<dim> p = project_velocity<dim>(u, ma * mb / (ma + mb), cone, region);
+      va += p / ma;
+      vb -= p / mb;
+      body_impulses[c] = p;
+    }
     TALUS_PETSC(VecRestoreArray(v, &x));
   }
   // 6. The stresses at the end of the step (one evaluation at v^{n+1}).
@@ -145,7 +173,8 @@ StepReport Simulation<dim>::advance_explicit(double h) {
   report.transfer_seconds += complete_step(system, stencils, fields, h, 1.0);
   // The force used sigma^n (weight 0 of sigma^{n+1}), the strain and the
   // motion v^{n+1} (weight 1): docs/energy.md.
-  account_energy(system.step_energy(0.0, 1.0, compliance_, contacts, impulses), kinetic_start);
+  account_energy(system.step_energy(0.0, 1.0, compliance_, contacts, impulses, &body_contacts, &body_impulses),
+                 kinetic_start);
   report.converged = true;
   return report;
 }

@@ -547,9 +547,6 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
     k.finish();
   }
 
-  if (c.contact.field_count > 1 && c.time.integrator == Integrator::explicit_euler)
-    root.section("contact").fail("bodies", "bodies in contact need the implicit integrator (time.integrator: implicit)");
-
   if (root.has("equilibrium")) {
     // The equilibrium stage (docs/equilibrium.md).
     YamlSection e = root.section("equilibrium");

@@ -649,7 +649,9 @@ template <int dim>
 StepEnergy MomentumSystem<dim>::step_energy(double stress_weight, double velocity_weight,
                                             const std::vector<Tangent>& compliance,
                                             const std::vector<ContactPoint<dim>>& contacts,
-                                            const std::vector<Vector<dim>>& impulses) const {
+                                            const std::vector<Vector<dim>>& impulses,
+                                            const std::vector<BodyContactPoint<dim>>* body_contacts,
+                                            const std::vector<Vector<dim>>* body_impulses) const {
   StepEnergy e;
   // Grid: m (v^{n+1} - v^n) . v^w = (1/2) m (|v^{n+1}|^2 - |v^n|^2) + (w - 1/2) m |dv|^2
   // on every free component; a constrained component loses (1/2) m (v^n)^2
@@ -695,15 +697,17 @@ StepEnergy MomentumSystem<dim>::step_energy(double stress_weight, double velocit
     e.terms.obstacle_work += impulses[c].dot(contacts[c].obstacle_velocity);
   }
   // Bodies in contact: r on a, -r on b, work r . (v_a - v_b)^w (<= 0: friction).
-  for (std::size_t c = 0; c < body_contacts_.size(); ++c) {
-    const BodyContactPoint<dim>& cp = body_contacts_[c];
+  const auto& bodies = body_contacts ? *body_contacts : body_contacts_;
+  const auto& body_r = body_impulses ? *body_impulses : body_impulse_;
+  for (std::size_t c = 0; c < bodies.size(); ++c) {
+    const BodyContactPoint<dim>& cp = bodies[c];
     Vector<dim> u;
     for (int a = 0; a < dim; ++a) {
       const std::size_t ka = static_cast<std::size_t>(dim) * cp.node_a + a, kb = static_cast<std::size_t>(dim) * cp.node_b + a;
       u[a] = (1.0 - velocity_weight) * (velocity_old_[ka] - velocity_old_[kb]) +
              velocity_weight * (velocity_[ka] - velocity_[kb]);
     }
-    e.terms.contact -= body_impulse_[c].dot(u);
+    e.terms.contact -= body_r[c].dot(u);
   }
   return e;
 }

@@ -98,8 +98,11 @@ class MomentumSystem {
   // velocity_weight: that of v^{n+1} in the strain and the motion (theta; 1
   // explicit). compliance: C^-1 of each material. `contacts` and their
   // impulses r_i: the system's own or the explicit step's.
+  // body_contacts / body_impulses: the explicit step's (nullptr: the system's own).
   StepEnergy step_energy(double stress_weight, double velocity_weight, const std::vector<Tangent>& compliance,
-                         const std::vector<ContactPoint<dim>>& contacts, const std::vector<Vector<dim>>& impulses) const;
+                         const std::vector<ContactPoint<dim>>& contacts, const std::vector<Vector<dim>>& impulses,
+                         const std::vector<BodyContactPoint<dim>>* body_contacts = nullptr,
+                         const std::vector<Vector<dim>>* body_impulses = nullptr) const;
   const std::vector<NaturalMap<dim>>& contact_maps() const { return contact_map_; }
   // Points where two bodies touch and, after finish(), the impulse r each
   // gives its body a (N s; -r on body b) and its region of the cone.
