@@ -38,7 +38,10 @@ per obstacle NAME, two columns
                                   axis; the column is named after it: _y, _z)
 
 and a fourth panel with |F| (solid) and that component (dashed) at every
-step. --obstacles limits both to the named obstacles.
+step; with bodies in contact (docs/contact.md#bodies-in-contact) also the
+part of |F| from each body that touches the obstacle (dotted, from the
+table's NAME_f_by_BODY columns). --obstacles limits all to the named
+obstacles.
 """
 import argparse
 import csv
@@ -87,27 +90,43 @@ def read(path):
 
 
 def read_forces(path):
-    """The obstacle force table: times (steps), and per obstacle name its
-    force vectors (steps x dim). The table has four blocks of columns of
-    equal size (docs/output.md): the forces NAME_fx [unit], ..., then the
-    impulses, their running totals and the window forces; the first is read."""
+    """The obstacle force table: times (steps), per obstacle name its force
+    vectors (steps x dim), and per obstacle the parts of that force by body
+    ({name: {body: steps x dim}}; empty without bodies in contact). The table
+    has four blocks of columns of equal size (docs/output.md): the forces
+    NAME_fx [unit], ..., the impulses, their running totals and the window
+    forces; with bodies in contact a fifth, NAME_f_by_BODY_x, ...; the first
+    and the fifth are read."""
     with open(path, newline="") as f:
         rows = list(csv.reader(f))
-    if not rows or rows[0][0].split(" [")[0] != "time" or (len(rows[0]) - 1) % 4:
-        sys.exit(f"plot_series: {path} is not an obstacle force table (no 'time' column and four blocks)")
+    if not rows or rows[0][0].split(" [")[0] != "time":
+        sys.exit(f"plot_series: {path} is not an obstacle force table (no 'time' column)")
     header = [h.split(" [")[0] for h in rows[0]]  # names without their units
+    by_body_columns = [k for k, h in enumerate(header) if "_f_by_" in h]
+    blocks = len(header) - 1 - len(by_body_columns)
+    if blocks <= 0 or blocks % 4:
+        sys.exit(f"plot_series: {path} is not an obstacle force table (no four blocks of obstacle columns)")
     data = np.array([[float(v) for v in r] for r in rows[1:] if len(r) == len(header)], dtype=float).reshape(-1, len(header))
     forces = {}
-    for k, column in enumerate(header[1:1 + (len(header) - 1) // 4], start=1):
+    for k, column in enumerate(header[1:1 + blocks // 4], start=1):
         name, _, component = column.rpartition("_f")
         if not name or component not in ("x", "y", "z"):
             sys.exit(f"plot_series: {path}: column '{column}' is not NAME_fx, NAME_fy or NAME_fz")
         forces.setdefault(name, {})["xyz".index(component)] = data[:, k]
+    parts = {}
+    for k in by_body_columns:
+        name, _, rest = header[k].partition("_f_by_")
+        body, _, component = rest.rpartition("_")
+        if name not in forces or not body or component not in ("x", "y", "z"):
+            sys.exit(f"plot_series: {path}: column '{header[k]}' is not NAME_f_by_BODY_x, _y or _z")
+        parts.setdefault(name, {}).setdefault(body, {})["xyz".index(component)] = data[:, k]
     out = {}
     for name, comps in forces.items():
         dim = len(comps)
         out[name] = np.stack([comps[a] for a in range(dim)], axis=1)
-    return data[:, 0], out
+    by_body = {name: {body: np.stack([c[a] for a in range(len(c))], axis=1) for body, c in bodies.items()}
+               for name, bodies in parts.items()}
+    return data[:, 0], out, by_body
 
 
 def force_at(times, values, t):
@@ -167,9 +186,9 @@ def main():
 
     # The force on each obstacle (the table of every step), at the outputs too.
     forces_path = a.forces or os.path.join(os.path.dirname(a.pvd), "obstacle_forces.csv")
-    force_times, forces = np.zeros(0), {}
+    force_times, forces, by_body = np.zeros(0), {}, {}
     if a.forces or os.path.exists(forces_path):
-        force_times, forces = read_forces(forces_path)
+        force_times, forces, by_body = read_forces(forces_path)
         if a.obstacles:
             unknown = [n for n in a.obstacles if n not in forces]
             if unknown:
@@ -216,6 +235,11 @@ def main():
         ax = axes[3]
         for k, (name, F) in enumerate(forces.items()):
             ax.plot(force_times, np.linalg.norm(F, axis=1), "-", linewidth=1, color=f"C{k}", label=f"{name}: |F|")
+            # With bodies in contact: each body's part of |F| (dotted), where it touches.
+            for j, (body, Fb) in enumerate(by_body.get(name, {}).items()):
+                if np.any(Fb != 0.0):
+                    ax.plot(force_times, np.linalg.norm(Fb, axis=1), ":", linewidth=1, color=f"C{k}",
+                            alpha=0.4 + 0.6 * (j + 1) / (len(by_body[name]) + 1), label=f"{name}: |F| of {body}")
             if along < F.shape[1]:
                 ax.plot(force_times, F[:, along], "--", linewidth=1, color=f"C{k}", label=f"{name}: F{names[along]}")
         ax.set_ylabel(f"force on obstacle (N{per_m})")
