@@ -7,7 +7,9 @@
 # physics (no kinetic energy at rest, energy gained <= energy released); the
 # energy balance drawn by scripts/plot_energy.py closes.
 # Then the same column on a frictional floor with a wall in its way: the
-# force columns of plot_series.py equal those of obstacle_forces.csv.
+# force columns of plot_series.py equal those of obstacle_forces.csv. Last,
+# two blocks with their own velocity fields on a floor (bodies in contact):
+# plot_series.py reads the table's by-body block, whose parts sum to the force.
 set -euo pipefail
 talus=$1
 repo=$2
@@ -178,4 +180,31 @@ def size(name):
 assert w4 == w3 and h4 > h3, (w3, h3, w4, h4)
 print("plot_scripts ok: wall force;", "wall |F| at the outputs",
       " ".join(r["wall_force"] for r in rows), "N/m; floor |F|", " ".join(f"{float(r['y_min_force']):.1f}" for r in rows))
+PY
+
+cat > bodies.yaml <<EOF
+grid: {lower: [0, 0], upper: [1.2, 0.6], cell_size: 0.05}
+time: {end: 0.1, step: 0.01}
+output: {directory: $work/bodies, interval: 0.05}
+gravity: [0, -9.81]
+materials: [{name: rock, model: linear_elastic, density: 2000, youngs_modulus: 2.0e7, poisson_ratio: 0.3}]
+bodies: [{name: left, material: rock, box: {lower: [0.2, 0.1], upper: [0.5, 0.3]}},
+         {name: right, material: rock, box: {lower: [0.7, 0.1], upper: [0.9, 0.5]}}]
+contact: {bodies: [{pair: [left, right], friction: 0.3}]}
+obstacles: [{name: floor, type: half_plane, point: [0, 0.1], normal: [0, 1], friction: 0.5}]
+boundaries: {x_min: free, x_max: free, y_min: free, y_max: free}
+EOF
+"$talus" run bodies.yaml > bodies.log 2>&1 || { echo "FAIL: talus run (bodies)"; cat bodies.log; exit 1; }
+/usr/bin/python3 "$repo/scripts/plot_series.py" bodies/particles.pvd --out bodies_series.png \
+  > bodies_series.log 2>&1 || { echo "FAIL: plot_series.py with bodies in contact"; cat bodies_series.log; exit 1; }
+/usr/bin/python3 - "$work" <<'PY'
+import csv, os, sys
+rows = list(csv.reader(open(os.path.join(sys.argv[1], "bodies", "obstacle_forces.csv"))))
+h = [c.split(" [")[0] for c in rows[0]]
+for r in rows[1:]:
+    v = dict(zip(h, map(float, r)))
+    for a in "xy":
+        parts = v[f"floor_f_by_left_{a}"] + v[f"floor_f_by_right_{a}"]
+        assert abs(parts - v[f"floor_f{a}"]) <= 1e-9 * max(1.0, abs(v[f"floor_f{a}"])), (a, parts, v)
+print("plot_scripts ok: bodies in contact, the floor force split by body in", len(rows) - 1, "rows")
 PY
