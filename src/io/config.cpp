@@ -136,40 +136,6 @@ std::string outside_grid(const CaseConfig& c, const std::vector<double>& lo, con
   return "";
 }
 
-// contact.bodies: pairs of bodies in frictional contact, each body of a pair
-// with its own velocity field (docs/contact.md#bodies-in-contact).
-void parse_body_pairs(YamlSection& k, CaseConfig& c) {
-  std::vector<YamlSection> pairs = k.list("bodies");
-  const auto body_index = [&](YamlSection& p, const std::string& name) {
-    for (std::size_t b = 0; b < c.bodies.size(); ++b)
-      if (c.bodies[b].name == name) return static_cast<int>(b);
-    p.fail_value("pair", "'" + name + "' is not the name of a body");
-  };
-  for (YamlSection& p : pairs) {
-    const std::vector<std::string> names = p.texts("pair", 2);
-    BodyContactPair pair;
-    pair.body_a = body_index(p, names[0]);
-    pair.body_b = body_index(p, names[1]);
-    if (pair.body_a == pair.body_b) p.fail_value("pair", "names the same body twice");
-    for (const BodyContactPair& q : c.contact.body_pairs)
-      if ((q.body_a == pair.body_a && q.body_b == pair.body_b) || (q.body_a == pair.body_b && q.body_b == pair.body_a))
-        p.fail_value("pair", "is listed twice");
-    pair.friction = p.real("friction");
-    if (!(pair.friction >= 0.0 && pair.friction <= 10.0)) p.fail_value("friction", "must be in [0, 10]");
-    p.finish();
-    c.contact.body_pairs.push_back(pair);
-  }
-  // Field 0 for the bodies in no pair (if any), then one field per named body.
-  std::vector<char> named(c.bodies.size(), 0);
-  for (const BodyContactPair& q : c.contact.body_pairs) named[q.body_a] = named[q.body_b] = 1;
-  const bool common = std::find(named.begin(), named.end(), 0) != named.end();
-  c.contact.body_field.assign(c.bodies.size(), 0);
-  int next = common ? 1 : 0;
-  for (std::size_t b = 0; b < c.bodies.size(); ++b)
-    if (named[b]) c.contact.body_field[b] = next++;
-  c.contact.field_count = next;
-}
-
 ObstacleConfig parse_obstacle(YamlSection& o, const CaseConfig& c) {
   ObstacleConfig ob;
   ob.name = o.text("name");

@@ -201,12 +201,13 @@ bool MomentumSystem<dim>::shared_point(int node) const {
 }
 
 template <int dim>
-void MomentumSystem<dim>::neighbour_columns(const std::array<int, dim>& ijk, int field,
-                                            std::vector<PetscInt>& cols) const {
+void MomentumSystem<dim>::neighbour_columns(const std::array<int, dim>& ijk, int field, std::vector<PetscInt>& cols,
+                                            std::vector<int>* points) const {
   const int reach = grid_.shape() == ShapeKind::linear ? 1 : 2, width = 2 * reach + 1;
   int neighbours = 1;
   for (int a = 0; a < dim; ++a) neighbours *= width;
   cols.resize(neighbours);
+  if (points) points->resize(neighbours);
   for (int n = 0; n < neighbours; ++n) {
     std::array<int, dim> jk;
     bool inside = true;
@@ -214,7 +215,9 @@ void MomentumSystem<dim>::neighbour_columns(const std::array<int, dim>& ijk, int
       jk[ax] = ijk[ax] + r % width - reach;
       inside &= jk[ax] >= grid_.ghost_start()[ax] && jk[ax] < grid_.ghost_start()[ax] + grid_.ghost_size()[ax];
     }
-    cols[n] = inside ? active_.compact_index(field * points_ + grid_.local_index(jk)) : -1;
+    const int point = inside ? grid_.local_index(jk) : -1;
+    cols[n] = inside ? active_.compact_index(field * points_ + point) : -1;
+    if (points) (*points)[n] = point;
   }
 }
 
@@ -306,23 +309,18 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
   }
 
   std::vector<PetscInt> cols(neighbours), other;
+  std::vector<int> neighbour_points;
   std::vector<double> zeros;
   for (std::size_t sa = 0; sa < slot_point.size(); ++sa) {
     const int point = slot_point[sa];
     const int field = point / points_;
     const auto ijk = grid_.global_index(point % points_);
     double* row = rows.data() + sa * dim * row_length;
-    neighbour_columns(ijk, field, cols);
+    neighbour_columns(ijk, field, cols, &neighbour_points);
     for (int n = 0; n < neighbours; ++n) {
       // Constrained components: zero rows and columns (their equation is m_i v_i = 0).
       // (The constraints are those of the point, the same in every field.)
-      std::array<int, dim> jk;
-      bool inside = true;
-      for (int ax = 0, r = n; ax < dim; ++ax, r /= width) {
-        jk[ax] = ijk[ax] + r % width - reach;
-        inside &= jk[ax] >= grid_.ghost_start()[ax] && jk[ax] < grid_.ghost_start()[ax] + grid_.ghost_size()[ax];
-      }
-      const int neighbour = inside ? grid_.local_index(jk) : -1;
+      const int neighbour = neighbour_points[n];
       for (int i = 0; i < dim; ++i)
         for (int k = 0; k < dim; ++k)
           if (active_.constrained(point, i) || (neighbour >= 0 && active_.constrained(neighbour, k)))

@@ -17,4 +17,9 @@ BodyConfig parse_body(YamlSection& b, const CaseConfig& c);
 // particle of a particle file inside one, stops the run.
 void check_bodies_against_obstacles(std::vector<YamlSection>& sections, const CaseConfig& c);
 
+// contact.bodies (`k` the contact section): the pairs of bodies in contact
+// and each body's velocity field (docs/contact.md#bodies-in-contact); the
+// bodies are read.
+void parse_body_pairs(YamlSection& k, CaseConfig& c);
+
 }  // namespace talus

@@ -130,8 +130,10 @@ class MomentumSystem {
   bool shared_point(int node) const;  // more than one field is active at the node's point
   // The active nodes of `field` within the stencils' reach of the ghosted
   // point `point` (grid index ijk), as compact indices (-1: inactive or
-  // outside the ghost region), in the block-row order of jacobian().
-  void neighbour_columns(const std::array<int, dim>& ijk, int field, std::vector<PetscInt>& cols) const;
+  // outside the ghost region), in the block-row order of jacobian(); with
+  // `points`, also their ghosted points (-1 outside).
+  void neighbour_columns(const std::array<int, dim>& ijk, int field, std::vector<PetscInt>& cols,
+                         std::vector<int>* points = nullptr) const;
   void contact_factors(Vec v);  // P_i, Q_i of the contacts at v (the first half of contact_row_factors)
 
   const Grid<dim>& grid_;
