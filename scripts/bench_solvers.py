@@ -14,6 +14,11 @@ wall), both + half a particle spacing, as in docs/benchmarks.md.
     /usr/bin/python3 scripts/bench_solvers.py --floors frictional --end 0.3 --rounds 1
     /usr/bin/python3 scripts/bench_solvers.py --solver default= --solver lu="-talus_pc_type lu"
     /usr/bin/python3 scripts/bench_solvers.py --case inputs/landslide_3d_terrain.yaml --end 0.5 --no-deposit
+    /usr/bin/python3 scripts/bench_solvers.py --solver default= --solver noghost=@ghost_penalty=0
+
+A configuration's words of the form @key=value are keys of the case file's
+`solver:` section (docs/case_file.md#solver-optional) rather than PETSc
+options; the case must not have a `solver:` section of its own then.
 
 Time it alone: other jobs on the machine change the CPU times.
 """
@@ -61,9 +66,13 @@ def deposit(pvd_path, spacing, wall_x=0.0, wall_band=0.01):
     return float(x[order[k], 0]) + 0.5 * spacing, float(x[near_wall, 1].max()) + 0.5 * spacing
 
 
-def write_case(src, work, label, end, step):
+def write_case(src, work, label, end, step, solver_keys=None):
     with open(src) as f:
         text = f.read()
+    if solver_keys:
+        if re.search(r"(?m)^solver:", text):
+            sys.exit(f"{src} has a solver: section; @key=value configurations need a case without one")
+        text += "\nsolver: {" + ", ".join(f"{k}: {v}" for k, v in solver_keys.items()) + "}\n"
     out = os.path.join(work, label)
     text = re.sub(r"(?m)^(\s*directory:).*$", rf"\1 {out}", text)
     if end is not None:
@@ -98,7 +107,9 @@ def main():
     configs = []
     for s in solvers:
         name, _, opts = s.partition("=")
-        configs.append((name, shlex.split(opts)))
+        words = shlex.split(opts)
+        keys = dict(w[1:].split("=", 1) for w in words if w.startswith("@"))
+        configs.append((name, [w for w in words if not w.startswith("@")], keys))
     cases = [(os.path.splitext(os.path.basename(args.case))[0], os.path.abspath(args.case))] if args.case else [
         (f"reference_column_{f}", os.path.join(REPO, "inputs", f"reference_column_{f}.yaml"))
         for f in args.floors.split(",")]
@@ -108,9 +119,9 @@ def main():
     try:
         for rnd in range(args.rounds):
             for case_name, src in cases:
-                for name, opts in configs:
+                for name, opts, keys in configs:
                     label = f"{case_name}_{name}"
-                    case, pvd = write_case(src, args.out, label, args.end, args.step)
+                    case, pvd = write_case(src, args.out, label, args.end, args.step, keys)
                     written.append(case)
                     cpu, stdout = cpu_of([args.talus, "run", case, "--overwrite"] + opts)
                     summary = json.loads(stdout.split("talus-summary:", 1)[1].splitlines()[0])

@@ -212,6 +212,28 @@ StepReport Simulation<dim>::advance(double h) {
   }
   MomentumSystem<dim> system(*grid_, *particles_, stencils, fields, active, materials_, gravity_, h, theta,
                              std::move(contacts), std::move(body_contacts));
+  // The ghost penalty (docs/solver.md#ghost-penalty): the grid functions
+  // that particles barely touch at a body's edge get a stiffness tied to
+  // their neighbours. Not in the equilibrium stage (its accumulated form
+  // carries load that the run then releases; docs/equilibrium.md).
+  std::unique_ptr<GhostPenalty<dim>> ghost;
+  if (!equilibrium_stage_ && config_.solver.ghost_penalty > 0) {
+    const double t = time_;
+    auto inside_obstacle = [this, t](const Vector<dim>& x) {
+      for (const Obstacle<dim>& o : obstacles_)
+        if (o.gap(x, t).gap <= 0.0) return true;
+      return false;
+    };
+    // Contact points (with obstacles, faces, other bodies) are held by
+    // their contact condition.
+    std::vector<char> held(fields.mass.size(), 0);
+    for (const auto& cp : system.contacts()) held[cp.point] = 1;
+    for (const auto& cp : system.body_contacts()) held[cp.node_a] = held[cp.node_b] = 1;
+    ghost = std::make_unique<GhostPenalty<dim>>(*grid_, *particles_, stencils, fields, active, materials_,
+                                                config_.solver.ghost_penalty, inside_obstacle, &held);
+    system.set_ghost_penalty(ghost.get());
+    report.ghost_cells = ghost->global_cells();
+  }
   if (active.global_count() > 0) {
     report.newton = newton_->solve(system);
   } else {

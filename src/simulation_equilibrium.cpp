@@ -70,7 +70,8 @@ void Simulation<dim>::equilibrate(RunSummary& summary, std::ostream* progress) {
     summary.equilibrium_last_stress_change = stage_stress_change_;
     if (progress && rank == 0)
       *progress << "equilibrium " << std::setw(3) << k << "  newton " << r.newton.iterations << "  unbalance "
-                << std::scientific << std::setprecision(1) << r.newton.unbalance << "  stress change "
+                << std::scientific << std::setprecision(1) << r.newton.unbalance << "  start unbalance "
+                << (r.newton.unbalances.empty() ? 0.0 : r.newton.unbalances.front()) << "  stress change "
                 << std::setprecision(2) << stage_stress_change_ << "  largest displacement " << stage_displacement_ / cell
                 << " cells  gravity work " << std::setprecision(4)
                 << stage_gravity_work_ << std::defaultfloat << std::setprecision(6) << "\n";

@@ -371,6 +371,7 @@ RunSummary Simulation<dim>::run_steps(std::ostream* progress, const ProgressOpti
     }
     summary.contact_points += r.contact_points;
     summary.body_contact_points += r.body_contact_points;
+    summary.ghost_cells += r.ghost_cells;
     summary.max_step_newton_iterations = std::max<long>(summary.max_step_newton_iterations, r.newton.iterations);
     summary.max_unbalance = std::max(summary.max_unbalance, r.newton.unbalance);
     control.succeeded(r.newton.iterations);

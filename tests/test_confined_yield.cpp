@@ -53,7 +53,7 @@ YieldResult load_column(int cells_over_height, double psi, bool mohr_coulomb = f
   if constexpr (dim == 2)
     std::snprintf(yaml, sizeof yaml,
                   "grid: {lower: [0, 0], upper: [%.17g, %.17g], cell_size: %.17g}\n"
-                  "time: {end: 2.0, step: 0.5}\noutput: {enabled: false}\ngravity: [0, %g]\n"
+                  "time: {end: 2.0, step: 0.5}\noutput: {enabled: false}\nsolver: {ghost_penalty: 0}\ngravity: [0, %g]\n"
                   "materials: [%s]\n"
                   "bodies: [{name: column, material: soil, box: {lower: [0, 0], upper: [%.17g, %.17g]}}]\n"
                   "boundaries: {x_min: slip, x_max: slip, y_min: fixed, y_max: free}\n",
@@ -61,7 +61,7 @@ YieldResult load_column(int cells_over_height, double psi, bool mohr_coulomb = f
   else
     std::snprintf(yaml, sizeof yaml,
                   "grid: {lower: [0, 0, 0], upper: [%.17g, %.17g, %.17g], cell_size: %.17g}\n"
-                  "time: {end: 2.0, step: 0.5}\noutput: {enabled: false}\ngravity: [0, 0, %g]\n"
+                  "time: {end: 2.0, step: 0.5}\noutput: {enabled: false}\nsolver: {ghost_penalty: 0}\ngravity: [0, 0, %g]\n"
                   "materials: [%s]\n"
                   "bodies: [{name: column, material: soil, box: {lower: [0, 0, 0], upper: [%.17g, %.17g, %.17g]}}]\n"
                   "boundaries: {x_min: slip, x_max: slip, y_min: slip, y_max: slip, z_min: fixed, z_max: free}\n",
@@ -136,6 +136,9 @@ TEST_CASE("a column in uniaxial strain yields at the analytic load", "[plasticit
     CHECK(coarse.error_horizontal / fine.error_horizontal > 2.0);
   }
   // The 3D column is the same 1D problem.
+  // (These columns run without the ghost penalty: its cell integrals are exact where
+  // the particles' quadrature is not, at the functions next to the walls, so
+  // with it the 3D column differs from the 2D one by 2e-5 of rho g H.)
   for (bool mc : {false, true}) {
     const YieldResult r3 = load_column<3>(10, 0.0, mc), r2 = load_column<2>(10, 0.0, mc);
     CHECK(r3.error_horizontal == Approx(r2.error_horizontal).epsilon(1e-6));

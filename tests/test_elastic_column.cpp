@@ -29,7 +29,7 @@ ColumnError settle_column(int cells_over_height, const std::string& shape) {
   if constexpr (dim == 2)
     std::snprintf(yaml, sizeof yaml,
                   "grid: {lower: [0, 0], upper: [%.17g, %.17g], cell_size: %.17g, shape_function: %s}\n"
-                  "time: {end: 2.0, step: 0.5}\noutput: {enabled: false}\ngravity: [0, %g]\n"
+                  "time: {end: 2.0, step: 0.5}\noutput: {enabled: false}\nsolver: {ghost_penalty: 0}\ngravity: [0, %g]\n"
                   "materials: [{name: soil, model: linear_elastic, density: %g, youngs_modulus: %g, poisson_ratio: %g}]\n"
                   "bodies: [{name: column, material: soil, box: {lower: [0, 0], upper: [%.17g, %.17g]}}]\n"
                   "boundaries: {x_min: slip, x_max: slip, y_min: fixed, y_max: free}\n",
@@ -37,7 +37,7 @@ ColumnError settle_column(int cells_over_height, const std::string& shape) {
   else
     std::snprintf(yaml, sizeof yaml,
                   "grid: {lower: [0, 0, 0], upper: [%.17g, %.17g, %.17g], cell_size: %.17g, shape_function: %s}\n"
-                  "time: {end: 2.0, step: 0.5}\noutput: {enabled: false}\ngravity: [0, 0, %g]\n"
+                  "time: {end: 2.0, step: 0.5}\noutput: {enabled: false}\nsolver: {ghost_penalty: 0}\ngravity: [0, 0, %g]\n"
                   "materials: [{name: soil, model: linear_elastic, density: %g, youngs_modulus: %g, poisson_ratio: %g}]\n"
                   "bodies: [{name: column, material: soil, box: {lower: [0, 0, 0], upper: [%.17g, %.17g, %.17g]}}]\n"
                   "boundaries: {x_min: slip, x_max: slip, y_min: slip, y_max: slip, z_min: fixed, z_max: free}\n",
@@ -80,6 +80,9 @@ TEST_CASE("elastic column settles to the lithostatic stress", "[column][mpi]") {
   // Refinement reduces the error (measured ratio 2.8).
   CHECK(coarse.vertical / fine.vertical > 2.0);
   // The 3D column between slip walls is the same 1D problem: same error to round-off.
+  // (These columns run without the ghost penalty: its cell integrals are exact where
+  // the particles' quadrature is not, at the functions next to the walls, so
+  // with it the 3D column differs from the 2D one by 2e-5 of rho g H.)
   CHECK(coarse3.vertical == Approx(coarse.vertical).epsilon(1e-6));
   CHECK(coarse3.horizontal == Approx(coarse.horizontal).epsilon(1e-6));
 }

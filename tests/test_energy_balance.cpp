@@ -66,16 +66,29 @@ std::string elastic_block(const std::string& time) {
 }  // namespace
 
 TEST_CASE("energy balance: elastic block, implicit theta = 1/2 and 1, explicit", "[energy][mpi]") {
-  for (const char* time : {"step: 0.005, theta: 0.5", "step: 0.005, theta: 1.0", "step: 0.0005, integrator: explicit"}) {
+  // The ghost penalty (docs/solver.md#ghost-penalty, on by default) acts on
+  // the block's cut top cells and dissipates: counted with the time
+  // integration, it closes the balance too, but theta = 1/2 conserves
+  // energy only without it.
+  for (const char* time : {"step: 0.005, theta: 0.5}\nsolver: {ghost_penalty: 0", "step: 0.005, theta: 0.5",
+                           "step: 0.005, theta: 1.0", "step: 0.0005, integrator: explicit"}) {
     CaseConfig c = testing::case_from_yaml(elastic_block(time));
     Simulation<2> sim(c, PETSC_COMM_WORLD);
     const Balance b = run_balance(sim, c.time.step, c.time.end);
     print(time, b);
     const bool explicit_steps = c.time.integrator == Integrator::explicit_euler;
     CHECK(b.error_max < (explicit_steps ? 1e-11 : 1e-6) * b.scale);
-    // theta = 1/2 dissipates nothing in time, theta = 1 does (backward Euler).
-    if (std::string(time).find("0.5") != std::string::npos) CHECK(std::abs(b.terms.time_integration) < 1e-12 * b.scale);
-    if (std::string(time).find("1.0") != std::string::npos) CHECK(b.terms.time_integration > 0.1 * b.scale);
+    // theta = 1/2 dissipates nothing in time, theta = 1 does (backward Euler);
+    // with the ghost penalty theta = 1/2 dissipates its share (measured 8e-4
+    // of the energy that moved).
+    const std::string t = time;
+    if (t.find("0.5") != std::string::npos && c.solver.ghost_penalty == 0)
+      CHECK(std::abs(b.terms.time_integration) < 1e-12 * b.scale);
+    if (t.find("0.5") != std::string::npos && c.solver.ghost_penalty > 0) {
+      CHECK(b.terms.time_integration > 1e-5 * b.scale);
+      CHECK(b.terms.time_integration < 1e-2 * b.scale);
+    }
+    if (t.find("1.0") != std::string::npos) CHECK(b.terms.time_integration > 0.1 * b.scale);
   }
 }
 

@@ -38,7 +38,7 @@ std::string jacobian_case(const std::string& shape, const std::string& faces, co
 
 template <int dim>
 void check_jacobian(const std::string& shape, double theta, const std::string& material = elastic,
-                    bool separated = false) {
+                    bool separated = false, double ghost_penalty = 0.0) {
   const std::string faces = dim == 2 ? "boundaries: {x_min: fixed, x_max: free, y_min: slip, y_max: free}\n"
                                      : "boundaries: {x_min: fixed, y_min: slip, z_min: slip}\n";
   CaseConfig config = testing::case_from_yaml(jacobian_case<dim>(shape, faces, material));
@@ -70,6 +70,14 @@ void check_jacobian(const std::string& shape, double theta, const std::string& m
   g[dim - 1] = -9.81;
   const double h = 0.02;
   MomentumSystem<dim> system(grid, particles, stencils, fields, active, materials, g, h, theta);
+  std::unique_ptr<GhostPenalty<dim>> ghost;
+  if (ghost_penalty > 0) {
+    ghost = std::make_unique<GhostPenalty<dim>>(grid, particles, stencils, fields, active, materials, ghost_penalty);
+    // The block's free faces cut the cells they pass through.
+    INFO("cut cells " << ghost->global_cells());
+    CHECK(ghost->global_cells() >= (dim == 2 ? 10 : 20));
+    system.set_ghost_penalty(ghost.get());
+  }
 
   Vec v = system.initial_guess(), w, vp, vm, Fp, Fm, Jw;
   TALUS_PETSC(VecDuplicate(v, &w));
@@ -125,7 +133,7 @@ void check_jacobian(const std::string& shape, double theta, const std::string& m
   TALUS_PETSC(VecNorm(Jw, NORM_2, &norm_jw));
   TALUS_PETSC(VecAXPY(Fp, -1.0, Jw));
   TALUS_PETSC(VecNorm(Fp, NORM_2, &norm_diff));
-  INFO(dim << "D " << shape << " theta " << theta << (linear ? " elastic" : " Drucker-Prager") << ": |J w| = " << norm_jw << ", |J w - FD| = " << norm_diff);
+  INFO(dim << "D " << shape << " theta " << theta << " ghost penalty " << ghost_penalty << (linear ? " elastic" : " Drucker-Prager") << ": |J w| = " << norm_jw << ", |J w - FD| = " << norm_diff);
   // The elastic residual is linear in v, so the central difference is exact up
   // to round-off (~1e-16 |F| / eps = 1e-12 relative); any missing or wrong
   // term (rotation, theta, constraints) shows at >= 1e-3.
@@ -172,4 +180,14 @@ TEST_CASE("Jacobian equals finite differences with nonassociated Drucker-Prager"
 TEST_CASE("Jacobian equals finite differences while voids close", "[jacobian][plasticity][mpi]") {
   check_jacobian<2>("quadratic_bspline", 1.0, plastic, true);
   check_jacobian<3>("quadratic_bspline", 0.5, plastic, true);
+}
+
+// The ghost penalty (docs/solver.md#ghost-penalty) adds h^2 theta K to the
+// Jacobian, in the matrix and in the operator; gamma = 1 makes its share of
+// J w large enough that a missing or wrong term shows.
+TEST_CASE("Jacobian with the ghost penalty equals finite differences", "[jacobian][ghost][mpi]") {
+  check_jacobian<2>("quadratic_bspline", 1.0, elastic, false, 1.0);
+  check_jacobian<2>("quadratic_bspline", 0.5, plastic, false, 1.0);
+  check_jacobian<3>("quadratic_bspline", 1.0, elastic, false, 1.0);
+  check_jacobian<3>("quadratic_bspline", 0.5, plastic, false, 1.0);
 }

@@ -83,10 +83,11 @@ TEST_CASE("a Newton system the linear solver did not solve is never accepted", "
   // nonlinear GMRES, whose inner Newton step (prefix talus_npc_) fails.
   const std::string yaml = column_case(1.0, 0.1, 0.01, "");
   Simulation<2> reference(
-      testing::case_from_yaml(column_case(1.0, 0.1, 0.01, "solver: {petsc_options: {snes_type: newtonls}}\n")),
+      testing::case_from_yaml(column_case(1.0, 0.1, 0.01, "solver: {petsc_options: {snes_type: newtonls, pc_type: lu}}\n")),
       PETSC_COMM_SELF);
   const StepReport lu = reference.advance(0.01);
-  clear("-talus_snes_type");  // the case file's option stays in the database
+  clear("-talus_snes_type");  // the case file's options stay in the database
+  clear("-talus_pc_type");
   REQUIRE(lu.converged);
   REQUIRE_FALSE(lu.newton.direct_fallback);
 

@@ -26,6 +26,7 @@ struct StepReport {
   double solve_seconds = 0;       // active set + Newton
   PetscInt contact_points = 0;    // global number of contact candidates
   PetscInt body_contact_points = 0;  // global number of points where two bodies touch
+  long ghost_cells = 0;           // global number of cells under the ghost penalty (docs/solver.md#ghost-penalty)
   double contact_seconds = 0;     // detection + natural-map rows (part of solve_seconds)
   // Parts of solve_seconds: the particles' stress updates and internal
   // forces, the Jacobian matrices' assembly, the linear solves (with their
@@ -54,6 +55,7 @@ struct RunSummary {
   double material_seconds = 0, assembly_seconds = 0, linear_seconds = 0, operator_seconds = 0;  // StepReport
   long contact_points = 0;        // summed over the accepted steps
   long body_contact_points = 0;   // summed over the accepted steps
+  long ghost_cells = 0;           // summed over the accepted steps
   double max_unbalance = 0;       // largest U of an accepted step (docs/solver.md#convergence)
   double energy_balance_error = 0;  // J: K + G + E + the dissipated terms - (K0 + G0 + E0) (docs/energy.md)
   long structure_builds = 0;      // steps whose matrix and preconditioner structure was built anew

@@ -115,7 +115,7 @@ void print_summary(const talus::CaseConfig& config, const talus::RunSummary& s, 
               << ", \"contact_seconds\": " << s.contact_seconds << ", \"material_seconds\": " << s.material_seconds
               << ", \"assembly_seconds\": " << s.assembly_seconds << ", \"linear_solve_seconds\": " << s.linear_seconds
               << ", \"operator_seconds\": " << s.operator_seconds << ", \"contact_points\": " << s.contact_points
-              << ", \"body_contact_points\": " << s.body_contact_points
+              << ", \"body_contact_points\": " << s.body_contact_points << ", \"ghost_cells\": " << s.ghost_cells
               << ", \"max_unbalance\": " << s.max_unbalance << ", \"energy_balance_error\": " << s.energy_balance_error << ", \"structure_builds\": " << s.structure_builds
               << ", \"equilibrium_steps\": " << s.equilibrium_steps
               << ", \"equilibrium_newton_iterations\": " << s.equilibrium_newton_iterations

@@ -547,6 +547,7 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
     t.finish();
   }
 
+  bool ghost_penalty_given = false;
   if (root.has("solver")) {
     YamlSection s = root.section("solver");
     c.solver.active_mass_ratio = s.real("active_mass_ratio", 1e-12);
@@ -558,6 +559,13 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
     c.solver.balance_tolerance = s.real("balance_tolerance", 1e-8);
     if (!(c.solver.balance_tolerance >= 1e-15 && c.solver.balance_tolerance <= 1e-2))
       s.fail_value("balance_tolerance", "must be in [1e-15, 1e-2]");
+    c.solver.ghost_penalty = s.real("ghost_penalty", c.solver.ghost_penalty);
+    ghost_penalty_given = s.has("ghost_penalty");
+    if (!(c.solver.ghost_penalty >= 0 && c.solver.ghost_penalty <= 10))
+      s.fail_value("ghost_penalty", "must be in [0, 10]");
+    if (c.solver.ghost_penalty > 0 && s.has("ghost_penalty") && c.grid.shape == ShapeKind::linear)
+      s.fail_value("ghost_penalty", "needs quadratic B-splines (grid.shape_function: quadratic_bspline); "
+                                    "it is not defined for linear hats (0 turns it off)");
     const auto petsc_options = s.free_map("petsc_options");
     for (auto& [k, v] : petsc_options) {
       std::string key = k;
@@ -574,6 +582,9 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
     }
     s.finish();
   }
+  // The ghost penalty is defined for quadratic B-splines only
+  // (docs/solver.md#ghost-penalty).
+  if (!ghost_penalty_given && c.grid.shape == ShapeKind::linear) c.solver.ghost_penalty = 0.0;
   if (root.has("parallel")) {
     YamlSection q = root.section("parallel");
     c.parallel.balance = q.boolean("balance", true);

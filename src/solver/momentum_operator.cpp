@@ -59,6 +59,7 @@ void MomentumSystem<dim>::apply_jacobian(Vec x, Vec y) {
     for (int a = 0; a < n; ++a)
       Eigen::Map<Vector<dim>>(operator_y_.data() + static_cast<std::size_t>(dim) * st.local[a]) += Y.row(a).transpose();
   }
+  if (ghost_) ghost_->add_product(operator_x_, operator_y_, h_ * h_ * theta_);
   TALUS_PETSC(VecZeroEntries(y));
   active_.add_to_compact(operator_y_, y);
   PetscScalar* out;

@@ -167,6 +167,13 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
 template <int dim>
 void MomentumSystem<dim>::residual(Vec v, Vec F) {
   evaluate_particles(v);
+  if (ghost_) {
+    // f += K h v_theta (ghost_penalty.hpp), before the common factor h below.
+    std::vector<double>& u = ghost_work_;
+    u.resize(velocity_.size());
+    for (std::size_t k = 0; k < u.size(); ++k) u[k] = h_ * (theta_ * velocity_[k] + (1.0 - theta_) * velocity_old_[k]);
+    ghost_->add_product(u, force_, 1.0);
+  }
   for (int i = 0; i < nodes_; ++i)
     for (int c = 0; c < dim; ++c) force_[dim * i + c] = active_.constrained(i, c) ? 0.0 : h_ * force_[dim * i + c];
   TALUS_PETSC(VecZeroEntries(F));
@@ -254,6 +261,14 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
   // touch it: that rank sees only the neighbours inside its own ghost region,
   // and PETSc squeezes the slots a first assembly leaves unused, so a later
   // step that reuses the matrix and fills them would need a new nonzero.
+  if (ghost_)
+    // A cut cell's nodes (its rank need not hold a particle in it).
+    for (const auto& cell : ghost_->cells())
+      for (const int node : cell.node)
+        if (slot[node] < 0) {
+          slot[node] = static_cast<int>(slot_point.size());
+          slot_point.push_back(node);
+        }
   for (const int point : active_.owned_points())
     if (slot[point] < 0) {
       slot[point] = static_cast<int>(slot_point.size());
@@ -308,6 +323,28 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
     }
   }
 
+  if (ghost_) {
+    // The ghost penalty's blocks h^2 theta K_C I (ghost_penalty.hpp), with
+    // the particles' blocks: a cut cell's nodes are a particle's stencil.
+    const double scale_ghost = h_ * h_ * theta_;
+    constexpr int n_cell = GhostPenalty<dim>::cell_nodes;
+    for (const auto& cell : ghost_->cells()) {
+      std::array<int, n_cell> lin;
+      for (int n = 0; n < n_cell; ++n) {
+        const auto ijk = grid_.global_index(cell.node[n] % points_);
+        lin[n] = 0;
+        for (int ax = 0; ax < dim; ++ax) lin[n] += ijk[ax] * stride[ax];
+      }
+      for (int m = 0; m < n_cell; ++m) {
+        double* row = rows.data() + static_cast<std::size_t>(slot[cell.node[m]]) * dim * row_length;
+        for (int n = 0; n < n_cell; ++n) {
+          const double k = scale_ghost * cell.coupling[m * n_cell + n];
+          double* block = row + (lin[n] - lin[m] + centre) * dim;
+          for (int i = 0; i < dim; ++i) block[i * row_length + i] += k;
+        }
+      }
+    }
+  }
   std::vector<PetscInt> cols(neighbours), other;
   std::vector<int> neighbour_points;
   std::vector<double> zeros;
@@ -559,6 +596,15 @@ StepEnergy MomentumSystem<dim>::step_energy(double stress_weight, double velocit
     // voids it opens; the voids closed before the material saw the strain
     // are the strain's other inelastic part.
     e.terms.plastic += V0 * (tau_w.dot(plastic_increment_[p]) + tau_w.head<3>().sum() / 3.0 * closed_voids_[p]);
+  }
+  if (ghost_) {
+    // The ghost penalty's impulse h K (h v_theta) works on v^w: numerical
+    // dissipation, counted with the time integration's (docs/energy.md).
+    std::vector<double> u(velocity_.size()), Ku(velocity_.size(), 0.0);
+    for (std::size_t k = 0; k < u.size(); ++k) u[k] = h_ * (theta_ * velocity_[k] + (1.0 - theta_) * velocity_old_[k]);
+    ghost_->add_product(u, Ku, h_);
+    for (std::size_t k = 0; k < u.size(); ++k)
+      e.terms.time_integration += Ku[k] * ((1.0 - velocity_weight) * velocity_old_[k] + velocity_weight * velocity_[k]);
   }
   // Contact points: the impulse r the obstacle gives works on v^w.
   for (std::size_t c = 0; c < contacts.size(); ++c) {

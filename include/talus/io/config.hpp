@@ -198,6 +198,11 @@ struct SolverConfig {
   static constexpr int default_direct_solver_limit = 100000000;
   int direct_solver_limit = default_direct_solver_limit;
   double balance_tolerance = 1e-8;   // Newton stops when sum |F| <= tolerance * impulse scale
+  // gamma of the ghost penalty on each step's displacement
+  // (docs/solver.md#ghost-penalty); 0: off. Quadratic B-splines only (the
+  // default is 0 with linear hats).
+  static constexpr double default_ghost_penalty = 0.03;
+  double ghost_penalty = default_ghost_penalty;
   std::vector<std::pair<std::string, std::string>> petsc_options;  // without the talus_ prefix
   std::map<std::string, std::string> petsc_option_where;  // key -> "file:line: solver.petsc_options.key"
 };

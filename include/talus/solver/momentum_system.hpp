@@ -32,6 +32,7 @@
 // and dR_a/dv + dR_b/dv.
 #include <petscmat.h>
 
+#include <algorithm>
 #include <vector>
 
 #include "talus/contact/coulomb_cone.hpp"
@@ -39,6 +40,7 @@
 #include "talus/materials/material.hpp"
 #include "talus/solver/active_set.hpp"
 #include "talus/solver/energy_balance.hpp"
+#include "talus/solver/ghost_penalty.hpp"
 
 namespace talus {
 
@@ -78,6 +80,11 @@ class MomentumSystem {
   // The explicit step needs the stresses only: no tangents A_p (jacobian()
   // is then unavailable).
   void skip_tangents() { with_tangents_ = false; }
+  // The ghost penalty (ghost_penalty.hpp, docs/solver.md#ghost-penalty) on
+  // the step's displacement h v_theta: the momentum rows gain h K h v_theta,
+  // the Jacobian h^2 theta K (inside the particles' pattern).
+  void set_ghost_penalty(const GhostPenalty<dim>* ghost) { ghost_ = ghost; }
+  const GhostPenalty<dim>* ghost_penalty() const { return ghost_; }
 
   // After convergence: grid velocity v^{n+1} (ghosted, constraints applied),
   // start-of-step v^n (same layout) and particle stresses sigma^{n+1}.
@@ -180,6 +187,8 @@ class MomentumSystem {
   double contact_seconds_ = 0.0;
   double material_seconds_ = 0.0, assembly_seconds_ = 0.0, operator_seconds_ = 0.0;
   int any_contacts_ = 0;  // on any rank
+  const GhostPenalty<dim>* ghost_ = nullptr;
+  std::vector<double> ghost_work_;  // h v_theta, ghosted (residual)
 };
 
 }  // namespace talus
