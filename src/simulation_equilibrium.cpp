@@ -57,6 +57,15 @@ void Simulation<dim>::equilibrate(RunSummary& summary, std::ostream* progress) {
   newton_->rebuild_next_step();
 
   const double cell = grid_->cell_size();
+  // The unbalance at rest U0 of each stage step's start (the stresses so far
+  // against gravity, relative to the weight: Newton's U at its initial
+  // guess). A stage whose U0 stops falling while small has balanced
+  // everything the particles support: what is left is the weight of grid
+  // points without stiffness (a B-spline's far tail at a body's edge), which
+  // no further step balances (docs/equilibrium.md#limits).
+  constexpr double stalled_unbalance = 1e-3, stalled_ratio = 0.5;
+  double last_start = std::numeric_limits<double>::infinity();
+  bool stalled = false;
   for (int k = 1; k <= q.max_steps; ++k) {
     const StepReport r = advance(q.step);
     summary.equilibrium_newton_iterations += r.newton.iterations;
@@ -68,16 +77,28 @@ void Simulation<dim>::equilibrate(RunSummary& summary, std::ostream* progress) {
     ++summary.equilibrium_steps;
     summary.equilibrium_gravity_work += stage_gravity_work_;
     summary.equilibrium_last_stress_change = stage_stress_change_;
+    const double start = r.newton.unbalances.empty() ? 0.0 : r.newton.unbalances.front();
+    summary.equilibrium_unbalance = start;
     if (progress && rank == 0)
       *progress << "equilibrium " << std::setw(3) << k << "  newton " << r.newton.iterations << "  unbalance "
                 << std::scientific << std::setprecision(1) << r.newton.unbalance << "  start unbalance "
-                << (r.newton.unbalances.empty() ? 0.0 : r.newton.unbalances.front()) << "  stress change "
+                << start << "  stress change "
                 << std::setprecision(2) << stage_stress_change_ << "  largest displacement " << stage_displacement_ / cell
                 << " cells  gravity work " << std::setprecision(4)
                 << stage_gravity_work_ << std::defaultfloat << std::setprecision(6) << "\n";
     if (stage_stress_change_ <= q.tolerance) break;
+    if (start <= stalled_unbalance && start > stalled_ratio * last_start) {
+      stalled = true;
+      break;
+    }
+    last_start = start;
   }
-  if (summary.equilibrium_last_stress_change > q.tolerance && progress && rank == 0)
+  if (stalled && progress && rank == 0)
+    *progress << "  the equilibrium stage ends after " << summary.equilibrium_steps
+              << " steps: its unbalance at rest, " << summary.equilibrium_unbalance
+              << " of the weight, no longer falls (the weight of grid points that no particle supports; "
+                 "docs/equilibrium.md#limits)\n";
+  if (!stalled && summary.equilibrium_last_stress_change > q.tolerance && progress && rank == 0)
     *progress << "  warning: the equilibrium stage ended after equilibrium.max_steps = " << q.max_steps
               << " steps with a last stress change of " << summary.equilibrium_last_stress_change
               << " of the largest stress, above equilibrium.tolerance = " << q.tolerance << "\n";

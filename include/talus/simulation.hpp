@@ -83,6 +83,7 @@ struct RunSummary {
   // (J, J/m in 2D).
   long equilibrium_steps = 0, equilibrium_newton_iterations = 0;
   double equilibrium_last_stress_change = 0, equilibrium_gravity_work = 0;
+  double equilibrium_unbalance = 0;  // U at rest at the start of the stage's last step (docs/equilibrium.md)
 };
 
 template <int dim>

@@ -120,6 +120,7 @@ void print_summary(const talus::CaseConfig& config, const talus::RunSummary& s, 
               << ", \"equilibrium_steps\": " << s.equilibrium_steps
               << ", \"equilibrium_newton_iterations\": " << s.equilibrium_newton_iterations
               << ", \"equilibrium_last_stress_change\": " << s.equilibrium_last_stress_change
+              << ", \"equilibrium_unbalance\": " << s.equilibrium_unbalance
               << ", \"equilibrium_gravity_work\": " << s.equilibrium_gravity_work
               << ", \"direct_fallbacks\": " << s.direct_fallbacks << ", \"factorizations\": " << s.factorizations
               << ", \"jacobian_matrices\": " << s.jacobian_matrices

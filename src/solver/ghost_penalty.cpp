@@ -109,7 +109,7 @@ GhostPenalty<dim>::GhostPenalty(const Grid<dim>& grid, const Particles<dim>& par
   // A cut cell holds particles of its field next to a cell (faces and
   // corners) that holds none; cells beyond the grid count as filled (the
   // grid's faces are walls, not free surfaces). A cell's neighbours lie in
-  // the ghost region of the rank that owns its particles.
+  // the ghost region of the rank that evaluates it (below).
   std::vector<signed char> wall_cell(points, -1);
   auto at_surface = [&](int field, const std::array<int, dim>& cell) {
     std::array<int, dim> o, n;
