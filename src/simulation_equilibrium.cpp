@@ -95,7 +95,8 @@ void Simulation<dim>::equilibrate(RunSummary& summary, std::ostream* progress) {
   }
   if (stalled && progress && rank == 0)
     *progress << "  the equilibrium stage ends after " << summary.equilibrium_steps
-              << " steps: its unbalance at rest, " << summary.equilibrium_unbalance
+              << " steps: its unbalance at rest, " << std::scientific << std::setprecision(2)
+              << summary.equilibrium_unbalance << std::defaultfloat << std::setprecision(6)
               << " of the weight, no longer falls (the weight of grid points that no particle supports; "
                  "docs/equilibrium.md#limits)\n";
   if (!stalled && summary.equilibrium_last_stress_change > q.tolerance && progress && rank == 0)

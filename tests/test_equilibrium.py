@@ -21,6 +21,14 @@
    gives the measurement.)
 3. On 2 ranks the layer's stage gives the same stresses as on 1 (to 1e-8
    of rho g H: the same linear solves up to round-off and solver tolerance).
+4. A 3D slide read from a particle file (the particles of
+   inputs/landslide_3d_from_dem.yaml, elastic, on its terrain with a
+   friction of 2): grid points at the slide's edges that no particle
+   supports keep falling in every stage step, so the stress change never
+   reaches the tolerance; the stage ends when its unbalance at rest stops
+   falling (within 6 steps, below 1e-3 of the weight), and the run after it
+   stays at rest (kinetic energy below 1e-6 of the stage's gravity work)
+   where the stress-free start rings (above 1e-2 of it).
 
 usage: test_equilibrium.py TALUS_BINARY SOURCE_DIR
 """
@@ -166,6 +174,43 @@ boundaries: {{x_min: slip, x_max: slip, y_min: slip, y_max: free}}
             failures.append(f"slope: kinetic energy {ke} after the stage, above 1e-9 of {work_g}")
         if ke_without is not None and not ke_without > 5e-3 * work_g:
             failures.append(f"slope without the stage: kinetic energy {ke_without}, not above 5e-3 of {work_g}")
+
+    # --- 4. a 3D slide from a particle file (inputs/landslide_3d_from_dem.yaml,
+    # elastic, on a terrain of friction 2 that holds it) -----------------------
+    source = os.path.join(os.path.abspath(sys.argv[2]), "inputs")
+    dem = f"""grid: {{lower: [0.0, 0.0, -0.3], upper: [4.05, 1.2, 1.8], cell_size: 0.15}}
+time: {{end: 0.2, step: 0.01}}
+output: {{directory: OUT, interval: 0.1}}
+checkpoint: {{enabled: false}}
+gravity: [0.0, 0.0, -9.81]
+materials:
+  - {{name: sand, model: linear_elastic, density: 1900.0, youngs_modulus: 5.0e6, poisson_ratio: 0.3}}
+bodies:
+  - {{name: slide, material: sand, particles: {source}/particles/channel_slide_3d.csv}}
+obstacles:
+  - {{name: terrain, type: terrain, file: {source}/terrain/channel_3d.asc, friction: 2.0}}
+STAGE
+boundaries: {{x_min: slip, x_max: slip, y_min: slip, y_max: slip, z_min: slip, z_max: free}}
+"""
+    summary, ke = run(dem.replace("STAGE", "equilibrium: {contact: stick}"), "dem3d", work)
+    _, ke_without = run(dem.replace("STAGE", ""), "dem3d_without", work)
+    if summary:
+        work_g = summary["equilibrium_gravity_work"]
+        print(f"3D slide: {summary['equilibrium_steps']} stage steps, unbalance at rest "
+              f"{summary['equilibrium_unbalance']:.2e} of the weight, last stress change "
+              f"{summary['equilibrium_last_stress_change']:.2e}; max kinetic after {ke:.3g} J "
+              f"({ke / work_g:.2e} of the stage's gravity work {work_g:.4g} J), without the stage {ke_without:.3g} J")
+        # The stage stops when its unbalance at rest stalls (measured after 4
+        # steps at 6.2e-5 of the weight, the weight of unsupported grid
+        # points), not at max_steps; the run after it stays at rest (measured
+        # 7e-8 of the work) where the stress-free start rings (7e-2 of it).
+        if not (summary["equilibrium_steps"] <= 6 and summary["equilibrium_unbalance"] <= 1e-3):
+            failures.append(f"3D slide: stage of {summary['equilibrium_steps']} steps ending at an unbalance of "
+                            f"{summary['equilibrium_unbalance']}")
+        if not ke < 1e-6 * work_g:
+            failures.append(f"3D slide: kinetic energy {ke} after the stage, above 1e-6 of {work_g}")
+        if ke_without is not None and not ke_without > 1e-2 * work_g:
+            failures.append(f"3D slide without the stage: kinetic energy {ke_without}, not above 1e-2 of {work_g}")
 
 for f in failures:
     print("FAIL", f)
