@@ -151,44 +151,17 @@ namespace {
 template <int dim>
 std::vector<double> volume_gradients(const Grid<dim>& grid, const Particles<dim>& particles,
                                    const std::vector<Stencil<dim>>& stencils, const GridFields<dim>& fields) {
-  constexpr int bs = dim + 1;  // the (m, m v) DMDA, its first dim slots used
-  const int points = grid.ghosted_count();
-  std::vector<double> out(static_cast<std::size_t>(points) * fields.field_count * dim, 0.0);
-  DM da = grid.mass_momentum_dm();
-  Vec local, global;
-  TALUS_PETSC(DMGetLocalVector(da, &local));
-  TALUS_PETSC(DMGetGlobalVector(da, &global));
+  std::vector<double> mine(static_cast<std::size_t>(grid.ghosted_count()) * fields.field_count * dim, 0.0);
   // The particle's current volume V0 det F.
   FieldView<PetscReal> v0(particles.swarm(), field::initial_volume), F(particles.swarm(), field::deformation_gradient);
-  std::vector<double> m(stencils.size());
-  for (std::size_t p = 0; p < stencils.size(); ++p)
-    m[p] = v0[p] * Eigen::Map<const Eigen::Matrix<double, dim, dim, Eigen::RowMajor>>(F.data() + dim * dim * p).determinant();
-  for (int field = 0; field < fields.field_count; ++field) {
-    const int offset = field * points;
-    TALUS_PETSC(VecZeroEntries(local));
-    TALUS_PETSC(VecZeroEntries(global));
-    PetscScalar* a;
-    TALUS_PETSC(VecGetArray(local, &a));
-    for (std::size_t p = 0; p < stencils.size(); ++p) {
-      const Stencil<dim>& st = stencils[p];
-      if (st.local[0] / points != field) continue;
-      for (int k = 0; k < st.count; ++k)
-        for (int c = 0; c < dim; ++c) a[bs * (st.local[k] - offset) + c] += m[p] * st.gradient[k][c];
-    }
-    TALUS_PETSC(VecRestoreArray(local, &a));
-    TALUS_PETSC(DMLocalToGlobalBegin(da, local, ADD_VALUES, global));
-    TALUS_PETSC(DMLocalToGlobalEnd(da, local, ADD_VALUES, global));
-    TALUS_PETSC(DMGlobalToLocalBegin(da, global, INSERT_VALUES, local));
-    TALUS_PETSC(DMGlobalToLocalEnd(da, global, INSERT_VALUES, local));
-    const PetscScalar* b;
-    TALUS_PETSC(VecGetArrayRead(local, &b));
-    for (int i = 0; i < points; ++i)
-      for (int c = 0; c < dim; ++c) out[static_cast<std::size_t>(dim) * (offset + i) + c] = b[bs * i + c];
-    TALUS_PETSC(VecRestoreArrayRead(local, &b));
+  for (std::size_t p = 0; p < stencils.size(); ++p) {
+    const Stencil<dim>& st = stencils[p];
+    const double m =
+        v0[p] * Eigen::Map<const Eigen::Matrix<double, dim, dim, Eigen::RowMajor>>(F.data() + dim * dim * p).determinant();
+    for (int k = 0; k < st.count; ++k)
+      for (int c = 0; c < dim; ++c) mine[static_cast<std::size_t>(dim) * st.local[k] + c] += m * st.gradient[k][c];
   }
-  TALUS_PETSC(DMRestoreLocalVector(da, &local));
-  TALUS_PETSC(DMRestoreGlobalVector(da, &global));
-  return out;
+  return grid.sum_over_ranks(mine, fields.field_count, dim);
 }
 
 }  // namespace

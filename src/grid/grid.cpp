@@ -169,6 +169,40 @@ void Grid<dim>::stencil(const Vector<dim>& x, Stencil<dim>& st) const {
   for (int n = 0; n < st.count; ++n) st.local[n] = local_index(st.node[n]);
 }
 
+template <int dim>
+std::vector<double> Grid<dim>::sum_over_ranks(const std::vector<double>& mine, int fields, int components) const {
+  // One scalar per point, or dim values in the first slots of the (m, m v) DMDA.
+  DM da = components == 1 ? da_ : da_mp_;
+  const int bs = components == 1 ? 1 : dim + 1;
+  const int points = ghosted_count();
+  std::vector<double> out(mine.size());
+  Vec local, global;
+  TALUS_PETSC(DMGetLocalVector(da, &local));
+  TALUS_PETSC(DMGetGlobalVector(da, &global));
+  for (int field = 0; field < fields; ++field) {
+    const std::size_t offset = static_cast<std::size_t>(field) * points * components;
+    TALUS_PETSC(VecZeroEntries(local));
+    TALUS_PETSC(VecZeroEntries(global));
+    PetscScalar* a;
+    TALUS_PETSC(VecGetArray(local, &a));
+    for (int i = 0; i < points; ++i)
+      for (int c = 0; c < components; ++c) a[bs * i + c] = mine[offset + static_cast<std::size_t>(components) * i + c];
+    TALUS_PETSC(VecRestoreArray(local, &a));
+    TALUS_PETSC(DMLocalToGlobalBegin(da, local, ADD_VALUES, global));
+    TALUS_PETSC(DMLocalToGlobalEnd(da, local, ADD_VALUES, global));
+    TALUS_PETSC(DMGlobalToLocalBegin(da, global, INSERT_VALUES, local));
+    TALUS_PETSC(DMGlobalToLocalEnd(da, global, INSERT_VALUES, local));
+    const PetscScalar* b;
+    TALUS_PETSC(VecGetArrayRead(local, &b));
+    for (int i = 0; i < points; ++i)
+      for (int c = 0; c < components; ++c) out[offset + static_cast<std::size_t>(components) * i + c] = b[bs * i + c];
+    TALUS_PETSC(VecRestoreArrayRead(local, &b));
+  }
+  TALUS_PETSC(DMRestoreLocalVector(da, &local));
+  TALUS_PETSC(DMRestoreGlobalVector(da, &global));
+  return out;
+}
+
 template class Grid<2>;
 template class Grid<3>;
 

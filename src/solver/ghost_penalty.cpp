@@ -1,7 +1,5 @@
 #include "talus/solver/ghost_penalty.hpp"
 
-#include <petscdmda.h>
-
 #include <cmath>
 
 #include "talus/core/errors.hpp"
@@ -9,37 +7,6 @@
 namespace talus {
 
 namespace {
-
-// Values per ghosted node (fields x points), complete over all ranks: each
-// rank's contributions summed, on owned and ghost points alike.
-template <int dim>
-std::vector<double> sum_over_ranks(const Grid<dim>& grid, int field_count, const std::vector<double>& mine) {
-  const int points = grid.ghosted_count();
-  std::vector<double> out(mine.size());
-  DM da = grid.dm();
-  Vec local, global;
-  TALUS_PETSC(DMGetLocalVector(da, &local));
-  TALUS_PETSC(DMGetGlobalVector(da, &global));
-  for (int field = 0; field < field_count; ++field) {
-    const std::ptrdiff_t offset = static_cast<std::ptrdiff_t>(field) * points;
-    TALUS_PETSC(VecZeroEntries(global));
-    PetscScalar* a;
-    TALUS_PETSC(VecGetArray(local, &a));
-    std::copy(mine.begin() + offset, mine.begin() + offset + points, a);
-    TALUS_PETSC(VecRestoreArray(local, &a));
-    TALUS_PETSC(DMLocalToGlobalBegin(da, local, ADD_VALUES, global));
-    TALUS_PETSC(DMLocalToGlobalEnd(da, local, ADD_VALUES, global));
-    TALUS_PETSC(DMGlobalToLocalBegin(da, global, INSERT_VALUES, local));
-    TALUS_PETSC(DMGlobalToLocalEnd(da, global, INSERT_VALUES, local));
-    const PetscScalar* b;
-    TALUS_PETSC(VecGetArrayRead(local, &b));
-    std::copy(b, b + points, out.begin() + offset);
-    TALUS_PETSC(VecRestoreArrayRead(local, &b));
-  }
-  TALUS_PETSC(DMRestoreLocalVector(da, &local));
-  TALUS_PETSC(DMRestoreGlobalVector(da, &global));
-  return out;
-}
 
 // Per field and cell (stored at its lower corner's ghosted point, the index
 // of the first function of a particle's stencil in it), over all ranks: the
@@ -59,8 +26,8 @@ void cell_sums(const Grid<dim>& grid, const Particles<dim>& particles, const std
     V[stencils[p].local[0]] += Vp;
     VM[stencils[p].local[0]] += Vp * materials[material[p]]->elastic_stiffness()(0, 0);
   }
-  volume = sum_over_ranks(grid, fields.field_count, V);
-  stiffness = sum_over_ranks(grid, fields.field_count, VM);
+  volume = grid.sum_over_ranks(V, fields.field_count, 1);
+  stiffness = grid.sum_over_ranks(VM, fields.field_count, 1);
 }
 
 // The second derivative (per length^2) of the functions s, s + 1, s + 2 on
@@ -141,7 +108,7 @@ GhostPenalty<dim>::GhostPenalty(const Grid<dim>& grid, const Particles<dim>& par
   };
   // The held nodes as every rank that sees them knows them.
   std::vector<double> held_anywhere;
-  if (held) held_anywhere = sum_over_ranks(grid, fields.field_count, std::vector<double>(held->begin(), held->end()));
+  if (held) held_anywhere = grid.sum_over_ranks(std::vector<double>(held->begin(), held->end()), fields.field_count, 1);
   // Each cell on one rank: the owner of its central function's point c + 1
   // (a cell's particles may live on two ranks: Grid::owner_points splits the
   // knot spans at the Greville points). Its 3^d functions c .. c + 2 lie in

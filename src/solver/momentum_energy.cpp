@@ -49,8 +49,8 @@ StepEnergy MomentumSystem<dim>::step_energy(double stress_weight, double velocit
   if (ghost_) {
     // The ghost penalty's impulse h K (h v_theta) works on v^w: numerical
     // dissipation, counted with the time integration's (docs/energy.md).
-    std::vector<double> u(velocity_.size()), Ku(velocity_.size(), 0.0);
-    for (std::size_t k = 0; k < u.size(); ++k) u[k] = h_ * (theta_ * velocity_[k] + (1.0 - theta_) * velocity_old_[k]);
+    std::vector<double> u, Ku(velocity_.size(), 0.0);
+    step_displacement(u);
     ghost_->add_product(u, Ku, h_);
     for (std::size_t k = 0; k < u.size(); ++k)
       e.terms.time_integration += Ku[k] * ((1.0 - velocity_weight) * velocity_old_[k] + velocity_weight * velocity_[k]);

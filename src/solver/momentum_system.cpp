@@ -165,14 +165,18 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
 }
 
 template <int dim>
+void MomentumSystem<dim>::step_displacement(std::vector<double>& u) const {
+  u.resize(velocity_.size());
+  for (std::size_t k = 0; k < u.size(); ++k) u[k] = h_ * (theta_ * velocity_[k] + (1.0 - theta_) * velocity_old_[k]);
+}
+
+template <int dim>
 void MomentumSystem<dim>::residual(Vec v, Vec F) {
   evaluate_particles(v);
   if (ghost_) {
     // f += K h v_theta (ghost_penalty.hpp), before the common factor h below.
-    std::vector<double>& u = ghost_work_;
-    u.resize(velocity_.size());
-    for (std::size_t k = 0; k < u.size(); ++k) u[k] = h_ * (theta_ * velocity_[k] + (1.0 - theta_) * velocity_old_[k]);
-    ghost_->add_product(u, force_, 1.0);
+    step_displacement(ghost_work_);
+    ghost_->add_product(ghost_work_, force_, 1.0);
   }
   for (int i = 0; i < nodes_; ++i)
     for (int c = 0; c < dim; ++c) force_[dim * i + c] = active_.constrained(i, c) ? 0.0 : h_ * force_[dim * i + c];

@@ -70,6 +70,11 @@ class Grid {
   // Smallest number of points a process column may own (the DMDA's stencil width).
   int stencil_width() const { return kind_ == ShapeKind::linear ? 1 : 2; }
 
+  // Values per ghosted node (`fields` blocks of ghosted points, `components`
+  // values per point: 1 or dim), each rank's contributions summed over all
+  // ranks, complete on owned and ghost points alike.
+  std::vector<double> sum_over_ranks(const std::vector<double>& mine, int fields, int components) const;
+
   // Shape-function stencil of a particle, with ghosted local indices filled in.
   void stencil(const Vector<dim>& x, Stencil<dim>& st) const;
 

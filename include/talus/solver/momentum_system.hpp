@@ -189,6 +189,7 @@ class MomentumSystem {
   int any_contacts_ = 0;  // on any rank
   const GhostPenalty<dim>* ghost_ = nullptr;
   std::vector<double> ghost_work_;  // h v_theta, ghosted (residual)
+  void step_displacement(std::vector<double>& u) const;  // u = h v_theta at the last evaluation, ghosted
 };
 
 }  // namespace talus
