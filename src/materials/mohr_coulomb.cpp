@@ -12,46 +12,51 @@ namespace talus {
 
 namespace {
 
-// Eigenvalues (ascending) and unit eigenvectors (columns) of a symmetric
-// 3 x 3 stress. In plane strain (sigma_xz = sigma_yz = 0, every 2D particle)
-// z is a principal direction and the x-y block is solved in closed form,
+// Principal stresses of a symmetric 3 x 3 stress. In plane strain
+// (sigma_xz = sigma_yz = 0, every 2D particle) z is a principal direction and
+// the x-y block is solved in closed form,
 //   lambda = m +- hypot((a - d)/2, b),  theta = atan2(2 b, a - d) / 2,
 // exact to round-off and several times cheaper than Eigen's iterative
-// solver, which remains for general 3D states.
-void principal_stresses(const Eigen::Matrix3d& A, Eigen::Vector3d& values, Eigen::Matrix3d& vectors) {
-  if (A(0, 2) != 0.0 || A(1, 2) != 0.0) {
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(A);
-    values = eigen.eigenvalues();
-    vectors = eigen.eigenvectors();
-    return;
+// solver, which remains for general 3D states. The values come first and the
+// directions only on request: an elastic or apex particle needs none.
+struct PrincipalStresses {
+  Eigen::Vector3d values;   // ascending
+  Eigen::Matrix3d vectors;  // unit eigenvectors (columns), set by directions()
+  bool plane = false;
+  std::array<int, 3> order{};  // plane strain: which of (m + r, m - r, zz) is values[i]
+  double a = 0, b = 0, d = 0;
+
+  explicit PrincipalStresses(const Eigen::Matrix3d& A) {
+    plane = A(0, 2) == 0.0 && A(1, 2) == 0.0;
+    if (!plane) {
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(A);
+      values = eigen.eigenvalues();
+      vectors = eigen.eigenvectors();
+      return;
+    }
+    a = A(0, 0), b = A(0, 1), d = A(1, 1);
+    const double m = 0.5 * (a + d), r = std::hypot(0.5 * (a - d), b);
+    const double candidate[3] = {m + r, m - r, A(2, 2)};
+    // Stable insertion sort of three (ties keep this order).
+    order = {0, 1, 2};
+    for (int i = 1; i < 3; ++i)
+      for (int j = i; j > 0 && candidate[order[j]] < candidate[order[j - 1]]; --j) std::swap(order[j], order[j - 1]);
+    for (int i = 0; i < 3; ++i) values[i] = candidate[order[i]];
   }
-  const double a = A(0, 0), b = A(0, 1), d = A(1, 1);
-  const double m = 0.5 * (a + d), r = std::hypot(0.5 * (a - d), b);
-  const double theta = 0.5 * std::atan2(2.0 * b, a - d);
-  const double c = std::cos(theta), s = std::sin(theta);
-  // (value, eigenvector) of the three directions, then sorted ascending.
-  std::array<std::pair<double, Eigen::Vector3d>, 3> pairs{{{m + r, Eigen::Vector3d(c, s, 0.0)},
-                                                    {m - r, Eigen::Vector3d(-s, c, 0.0)},
-                                                    {A(2, 2), Eigen::Vector3d(0.0, 0.0, 1.0)}}};
-  std::sort(pairs.begin(), pairs.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
-  for (int i = 0; i < 3; ++i) {
-    values[i] = pairs[i].first;
-    vectors.col(i) = pairs[i].second;
+
+  void directions() {
+    if (!plane) return;
+    const double theta = 0.5 * std::atan2(2.0 * b, a - d);
+    const double c = std::cos(theta), s = std::sin(theta);
+    const Eigen::Vector3d candidate[3] = {{c, s, 0.0}, {-s, c, 0.0}, {0.0, 0.0, 1.0}};
+    for (int i = 0; i < 3; ++i) vectors.col(i) = candidate[order[i]];
   }
-}
+};
 
 using Vector3 = Eigen::Vector3d;
 using Matrix3 = Eigen::Matrix3d;
 
 const Voigt unit_voigt = (Voigt() << 1, 1, 1, 0, 0, 0).finished();
-
-// The same tensor as a strain-like Voigt vector (shears doubled), so that
-// a.dot(strain_like(b)) = a : b for stress-like a and b.
-Voigt strain_like(const Voigt& s) {
-  Voigt e = s;
-  e.tail<3>() *= 2.0;
-  return e;
-}
 
 // Normal of the plane (sigma_i - sigma_j) + (sigma_i + sigma_j) sin(angle) in
 // principal stresses: (1 + sin) e_i - (1 - sin) e_j.
@@ -97,9 +102,7 @@ std::unique_ptr<Material> MohrCoulomb::from_yaml(YamlSection& y) {
 }
 
 double MohrCoulomb::yield_function(const Voigt& stress) const {
-  Vector3 s;  // ascending
-  Matrix3 vectors;
-  principal_stresses(voigt_to_tensor(stress), s, vectors);
+  const Vector3 s = PrincipalStresses(voigt_to_tensor(stress)).values;  // ascending
   return (s[2] - s[0]) + (s[2] + s[0]) * sin_phi_ - 2.0 * par_.cohesion * cos_phi_;
 }
 
@@ -199,12 +202,9 @@ void MohrCoulomb::update(const Voigt& rotated_stress, const Voigt& strain_increm
                          MaterialPointUpdate& out) const {
   const Voigt trial = rotated_stress + stiffness_ * strain_increment;
   out.separation_strain_increment = 0.0;
-  Vector3 ascending;
-  Matrix3 vectors;
-  principal_stresses(voigt_to_tensor(trial), ascending, vectors);
+  PrincipalStresses principal(voigt_to_tensor(trial));
   // Sorted descending: sigma1 >= sigma2 >= sigma3.
-  const Vector3 lambda = ascending.reverse();
-  const Matrix3 V = vectors.rowwise().reverse();
+  const Vector3 lambda = principal.values.reverse();
   const MohrCoulombPrincipalReturn ret = principal_return(lambda);
 
   if (ret.branch == MohrCoulombBranch::elastic) {
@@ -224,40 +224,48 @@ void MohrCoulomb::update(const Voigt& rotated_stress, const Voigt& strain_increm
     out.separation_strain_increment = std::max(0.0, e.sum() - sin_psi_ * e.cwiseAbs().sum());
     return;
   }
+  principal.directions();
+  const Matrix3 V = principal.vectors.rowwise().reverse();
 
   // sigma = sum_i sigma_i E_i with the trial's eigenprojections E_i = v_i v_i^T;
   // S = sum_ij (d sigma_i / d lambda_j) E_i (x) E_j
   //   + sum_{i<k} (sigma_i - sigma_k) / (lambda_i - lambda_k) M_ik (x) M_ik,
   // M_ik = (v_i v_k^T + v_k v_i^T) / sqrt(2), the unit shear of the pair.
-  Voigt E[3], M[3];
-  for (int i = 0; i < 3; ++i) E[i] = tensor_to_voigt(V.col(i) * V.col(i).transpose());
+  // In matrix form S = E J Es^T + M R Ms^T: E, M the 6 x 3 matrices of the
+  // E_i and M_ik, Es, Ms the same strain-like, R the diagonal of the ratios.
+  Eigen::Matrix<double, 6, 3> E, M;
+  for (int i = 0; i < 3; ++i) E.col(i) = tensor_to_voigt(V.col(i) * V.col(i).transpose());
   const int pair[3][2] = {{0, 1}, {0, 2}, {1, 2}};
   for (int p = 0; p < 3; ++p) {
     const int i = pair[p][0], k = pair[p][1];
-    M[p] = tensor_to_voigt(V.col(i) * V.col(k).transpose() + V.col(k) * V.col(i).transpose()) / std::sqrt(2.0);
+    M.col(p) = tensor_to_voigt(V.col(i) * V.col(k).transpose() + V.col(k) * V.col(i).transpose()) / std::sqrt(2.0);
   }
-  out.stress.setZero();
-  for (int i = 0; i < 3; ++i) out.stress += ret.stress[i] * E[i];
-  Tangent S = Tangent::Zero();
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) S += ret.jacobian(i, j) * E[i] * strain_like(E[j]).transpose();
+  out.stress = E * ret.stress;
+  Eigen::Matrix<double, 6, 3> Es = E, Ms = M;
+  Es.bottomRows<3>() *= 2.0;
+  Ms.bottomRows<3>() *= 2.0;
+  Vector3 ratio;
   const double scale = lambda.cwiseAbs().sum() + par_.cohesion;
   for (int p = 0; p < 3; ++p) {
     const int i = pair[p][0], k = pair[p][1];
-    double ratio;
     if ((ret.branch == MohrCoulombBranch::edge_12 && p == 0) || (ret.branch == MohrCoulombBranch::edge_23 && p == 2)) {
-      ratio = 0.0;  // sigma_i = sigma_k on the whole edge, so the ratio and its limit vanish
+      ratio[p] = 0.0;  // sigma_i = sigma_k on the whole edge, so the ratio and its limit vanish
     } else if (lambda[i] - lambda[k] > 1e-12 * scale) {
-      ratio = (ret.stress[i] - ret.stress[k]) / (lambda[i] - lambda[k]);
+      ratio[p] = (ret.stress[i] - ret.stress[k]) / (lambda[i] - lambda[k]);
     } else {
       // Coincident eigenvalues: the limit of the ratio for the smooth,
       // symmetric principal map of the branch.
-      ratio = ret.jacobian(i, i) - ret.jacobian(i, k);
+      ratio[p] = ret.jacobian(i, i) - ret.jacobian(i, k);
     }
-    S += ratio * M[p] * strain_like(M[p]).transpose();
   }
+  const Tangent S = E * ret.jacobian * Es.transpose() + M * ratio.asDiagonal() * Ms.transpose();
   out.trial_sensitivity = S;
-  out.tangent = S * stiffness_;
+  // S D with the isotropic D = lambda 1 1^T + diag(2G, 2G, 2G, G, G, G)
+  // (engineering shear), without the full 6 x 6 product.
+  const double lame = bulk_ - 2.0 * shear_ / 3.0;
+  const Voigt volumetric = lame * S.leftCols<3>().rowwise().sum();
+  out.tangent.leftCols<3>() = volumetric.replicate<1, 3>() + 2.0 * shear_ * S.leftCols<3>();
+  out.tangent.rightCols<3>() = shear_ * S.rightCols<3>();
   out.plastic_strain_increment = compliance_ * (trial - out.stress);
 }
 

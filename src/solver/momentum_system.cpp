@@ -136,18 +136,32 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
 
     // A = d sigma^{n+1}_ij / d L_kl = h D[ij, kl] + S[ij, :] d sigma*/d L_kl, with
     // d sigma*_ij / d L_kl = h/2 (d_ik s_lj - d_il s_kj - s_ik d_lj + s_il d_kj).
+    // The rotation sees only the spin, the skew part of L: d sigma*/d L_kk = 0
+    // and d sigma*/d L_lk = -d sigma*/d L_kl, so one product with S per pair
+    // k < l (one in 2D, three in 3D) instead of one per component.
     StressTangent& A = tangent_[p];
     for (int k = 0; k < dim && with_tangents_; ++k)
-      for (int l = 0; l < dim; ++l) {
-        Eigen::Matrix3d dR = Eigen::Matrix3d::Zero();
+      for (int l = k; l < dim; ++l) {
+        const Voigt strain_column = h_ * update.tangent.col(voigt_index(k, l));
+        if (k == l) {
+          for (int i = 0; i < dim; ++i)
+            for (int j = 0; j < dim; ++j) A(i * dim + j, k * dim + k) = strain_column[voigt_index(i, j)];
+          continue;
+        }
+        // d sigma*/d L_kl (symmetric, since s is).
+        Eigen::Matrix3d dR;
         for (int i = 0; i < 3; ++i)
           for (int j = 0; j < 3; ++j)
             dR(i, j) = 0.5 * h_ *
                        ((i == k ? sn(l, j) : 0.0) - (i == l ? sn(k, j) : 0.0) - (l == j ? sn(i, k) : 0.0) +
                         (k == j ? sn(i, l) : 0.0));
-        const Voigt column = h_ * update.tangent.col(voigt_index(k, l)) + update.trial_sensitivity * tensor_to_voigt(dR);
+        const Voigt spin_column = update.trial_sensitivity * tensor_to_voigt(dR);
         for (int i = 0; i < dim; ++i)
-          for (int j = 0; j < dim; ++j) A(i * dim + j, k * dim + l) = column[voigt_index(i, j)];
+          for (int j = 0; j < dim; ++j) {
+            const int v = voigt_index(i, j);
+            A(i * dim + j, k * dim + l) = strain_column[v] + spin_column[v];
+            A(i * dim + j, l * dim + k) = strain_column[v] - spin_column[v];
+          }
       }
 
     if (with_tangents_) stiff_[p] = !A.isZero(0.0);
