@@ -191,6 +191,52 @@ TEST_CASE("mohr_coulomb: returned stress is admissible and on the surface", "[pl
   }
 }
 
+TEST_CASE("mohr_coulomb: plane-strain states (closed-form principal axes) return as the general solver does",
+          "[plasticity]") {
+  // Every 2D particle has sigma_xz = sigma_yz = 0, and the return then takes
+  // its principal axes in closed form (half-angle formulas, no trigonometry).
+  // Expected: the principal return of the values from Eigen's solver, mapped
+  // back with its eigenvectors. Orientations sweep the whole half turn,
+  // including the ends where cos 2 theta = -1 (b = 0, sigma_xx < sigma_yy),
+  // b -> 0 on that side, and an isotropic in-plane state (r = 0).
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> angle(-M_PI / 2, M_PI / 2);
+  std::normal_distribution<double> d(0.0, 3e4);
+  double worst = 0.0;
+  int plastic = 0;
+  for (double psi : {0.0, 15.0, 30.0}) {
+    const MohrCoulomb m = make(30.0, psi, 5e3);
+    for (int trial = 0; trial < 400; ++trial) {
+      // In-plane principal values s1, s2 along angle t, and sigma_zz.
+      const double s1 = -4e4 + d(rng), s2 = -4e4 + d(rng), szz = -4e4 + d(rng);
+      double t = angle(rng);
+      if (trial % 8 == 0) t = M_PI / 2;                 // b = 0, rotated by 90 degrees
+      if (trial % 8 == 1) t = M_PI / 2 - 1e-9;          // b -> 0 on that side
+      if (trial % 8 == 2) t = 0.0;                      // b = 0
+      const double c = std::cos(t), s = std::sin(t);
+      Voigt trial_stress;
+      trial_stress << s1 * c * c + s2 * s * s, s1 * s * s + s2 * c * c, szz, 0.0, 0.0, (s1 - s2) * c * s;
+      if (trial % 8 == 3) trial_stress << s1, s1, szz, 0.0, 0.0, 0.0;  // r = 0
+      const MaterialPointUpdate u = update(m, trial_stress, Voigt::Zero());
+      const Principal p = principal(trial_stress);
+      const MohrCoulombPrincipalReturn ret = m.principal_return(p.values);
+      const Voigt expected = tensor_to_voigt(p.vectors * ret.stress.asDiagonal() * p.vectors.transpose());
+      plastic += ret.branch != Branch::elastic;
+      const double error = (u.stress - expected).norm() / trial_stress.norm();
+      worst = std::max(worst, error);
+      INFO("trial " << trial << " psi " << psi << " branch " << name(ret.branch));
+      CHECK(error <= 1e-12);
+      CHECK(u.stress[3] == 0.0);
+      CHECK(u.stress[4] == 0.0);
+    }
+  }
+  std::printf("Mohr-Coulomb plane strain: closed-form axes against Eigen's, worst relative stress difference %.2e "
+              "(%d plastic of 1200)\n",
+              worst, plastic);
+  CHECK(plastic > 300);         // both elastic and plastic states are compared
+  CHECK(plastic < 1200 - 300);
+}
+
 TEST_CASE("mohr_coulomb: psi = 0, hydrostatic tension far beyond the apex returns to the apex",
           "[plasticity]") {
   // The classical apex return (de Souza Neto Box 8.5) needs sin(psi) > 0

@@ -15,16 +15,18 @@ namespace {
 // Principal stresses of a symmetric 3 x 3 stress. In plane strain
 // (sigma_xz = sigma_yz = 0, every 2D particle) z is a principal direction and
 // the x-y block is solved in closed form,
-//   lambda = m +- hypot((a - d)/2, b),  theta = atan2(2 b, a - d) / 2,
+//   lambda = m +- r,  r = sqrt(((a - d)/2)^2 + b^2),
+//   theta = atan2(2 b, a - d) / 2  (cos 2 theta = (a - d)/(2 r), sin 2 theta = b / r),
 // exact to round-off and several times cheaper than Eigen's iterative
-// solver, which remains for general 3D states. The values come first and the
+// solver, which remains for general 3D states. (Stresses are far from the
+// range where r could overflow, so no hypot.) The values come first and the
 // directions only on request: an elastic or apex particle needs none.
 struct PrincipalStresses {
   Eigen::Vector3d values;   // ascending
   Eigen::Matrix3d vectors;  // unit eigenvectors (columns), set by directions()
   bool plane = false;
   std::array<int, 3> order{};  // plane strain: which of (m + r, m - r, zz) is values[i]
-  double a = 0, b = 0, d = 0;
+  double a = 0, b = 0, d = 0, r = 0;
 
   explicit PrincipalStresses(const Eigen::Matrix3d& A) {
     plane = A(0, 2) == 0.0 && A(1, 2) == 0.0;
@@ -35,7 +37,8 @@ struct PrincipalStresses {
       return;
     }
     a = A(0, 0), b = A(0, 1), d = A(1, 1);
-    const double m = 0.5 * (a + d), r = std::hypot(0.5 * (a - d), b);
+    const double m = 0.5 * (a + d);
+    r = std::sqrt(0.25 * (a - d) * (a - d) + b * b);
     const double candidate[3] = {m + r, m - r, A(2, 2)};
     // Stable insertion sort of three (ties keep this order).
     order = {0, 1, 2};
@@ -46,8 +49,19 @@ struct PrincipalStresses {
 
   void directions() {
     if (!plane) return;
-    const double theta = 0.5 * std::atan2(2.0 * b, a - d);
-    const double c = std::cos(theta), s = std::sin(theta);
+    // cos and sin of theta from those of 2 theta by the half-angle formulas,
+    // each taken where it does not cancel; theta in (-pi/2, pi/2], c >= 0.
+    double c = 1.0, s = 0.0;
+    if (r > 0.0) {
+      const double cos2 = 0.5 * (a - d) / r, sin2 = b / r;
+      if (cos2 >= 0.0) {
+        c = std::sqrt(0.5 * (1.0 + cos2));
+        s = 0.5 * sin2 / c;
+      } else {
+        s = std::copysign(std::sqrt(0.5 * (1.0 - cos2)), b == 0.0 ? 1.0 : b);
+        c = 0.5 * sin2 / s;
+      }
+    }
     const Eigen::Vector3d candidate[3] = {{c, s, 0.0}, {-s, c, 0.0}, {0.0, 0.0, 1.0}};
     for (int i = 0; i < 3; ++i) vectors.col(i) = candidate[order[i]];
   }

@@ -262,36 +262,62 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
   int neighbours = 1;
   for (int a = 0; a < dim; ++a) neighbours *= width;
   const int row_length = neighbours * dim;  // values in one scalar row of a block row
-  // The slots and the block rows are kept from one Jacobian to the next
-  // (members), so only their values are reset, not their memory.
+  // The slots, their columns and their constrained entries depend only on
+  // the step's stencils and active set: built at the step's first Jacobian
+  // and kept (members) for its later Newton iterates.
   std::vector<int>& slot = jacobian_slot_;
   std::vector<int>& slot_point = jacobian_slot_point_;
-  slot.assign(nodes_, -1);
-  slot_point.clear();
-  for (const Stencil<dim>& st : stencils_)
-    for (int k = 0; k < st.count; ++k)
-      if (slot[st.local[k]] < 0 && active_.compact_index(st.local[k]) >= 0) {
-        slot[st.local[k]] = static_cast<int>(slot_point.size());
-        slot_point.push_back(st.local[k]);
-      }
-  // Every owned active point gets its whole preallocated block row (zeros
-  // where no particle couples), also where only another rank's particles
-  // touch it: that rank sees only the neighbours inside its own ghost region,
-  // and PETSc squeezes the slots a first assembly leaves unused, so a later
-  // step that reuses the matrix and fills them would need a new nonzero.
-  if (ghost_)
-    // A cut cell's nodes (its rank need not hold a particle in it).
-    for (const auto& cell : ghost_->cells())
-      for (const int node : cell.node)
-        if (slot[node] < 0) {
-          slot[node] = static_cast<int>(slot_point.size());
-          slot_point.push_back(node);
+  if (!jacobian_layout_built_) {
+    jacobian_layout_built_ = true;
+    slot.assign(nodes_, -1);
+    slot_point.clear();
+    for (const Stencil<dim>& st : stencils_)
+      for (int k = 0; k < st.count; ++k)
+        if (slot[st.local[k]] < 0 && active_.compact_index(st.local[k]) >= 0) {
+          slot[st.local[k]] = static_cast<int>(slot_point.size());
+          slot_point.push_back(st.local[k]);
         }
-  for (const int point : active_.owned_points())
-    if (slot[point] < 0) {
-      slot[point] = static_cast<int>(slot_point.size());
-      slot_point.push_back(point);
+    // Every owned active point gets its whole preallocated block row (zeros
+    // where no particle couples), also where only another rank's particles
+    // touch it: that rank sees only the neighbours inside its own ghost region,
+    // and PETSc squeezes the slots a first assembly leaves unused, so a later
+    // step that reuses the matrix and fills them would need a new nonzero.
+    if (ghost_)
+      // A cut cell's nodes (its rank need not hold a particle in it).
+      for (const auto& cell : ghost_->cells())
+        for (const int node : cell.node)
+          if (slot[node] < 0) {
+            slot[node] = static_cast<int>(slot_point.size());
+            slot_point.push_back(node);
+          }
+    for (const int point : active_.owned_points())
+      if (slot[point] < 0) {
+        slot[point] = static_cast<int>(slot_point.size());
+        slot_point.push_back(point);
+      }
+    // Each slot's neighbour columns, and the entries of its block row that a
+    // constraint zeroes: constrained components have zero rows and columns
+    // (their equation is m_i v_i = 0; the constraints are those of the
+    // point, the same in every field).
+    jacobian_columns_.resize(slot_point.size() * neighbours);
+    jacobian_zeroed_start_.assign(1, 0);
+    jacobian_zeroed_.clear();
+    std::vector<PetscInt> cols(neighbours);
+    std::vector<int> neighbour_points;
+    for (std::size_t sa = 0; sa < slot_point.size(); ++sa) {
+      const int point = slot_point[sa];
+      neighbour_columns(grid_.global_index(point % points_), point / points_, cols, &neighbour_points);
+      std::copy(cols.begin(), cols.end(), jacobian_columns_.begin() + sa * neighbours);
+      for (int n = 0; n < neighbours; ++n) {
+        const int neighbour = neighbour_points[n];
+        for (int i = 0; i < dim; ++i)
+          for (int k = 0; k < dim; ++k)
+            if (active_.constrained(point, i) || (neighbour >= 0 && active_.constrained(neighbour, k)))
+              jacobian_zeroed_.push_back(i * row_length + n * dim + k);
+      }
+      jacobian_zeroed_start_.push_back(static_cast<int>(jacobian_zeroed_.size()));
     }
+  }
   std::vector<double>& rows = jacobian_rows_;
   rows.assign(slot_point.size() * dim * row_length, 0.0);
 
@@ -363,28 +389,19 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
       }
     }
   }
-  std::vector<PetscInt> cols(neighbours), other;
-  std::vector<int> neighbour_points;
+  std::vector<PetscInt> other;
   std::vector<double> zeros;
   for (std::size_t sa = 0; sa < slot_point.size(); ++sa) {
     const int point = slot_point[sa];
     const int field = point / points_;
     const auto ijk = grid_.global_index(point % points_);
     double* row = rows.data() + sa * dim * row_length;
-    neighbour_columns(ijk, field, cols, &neighbour_points);
-    for (int n = 0; n < neighbours; ++n) {
-      // Constrained components: zero rows and columns (their equation is m_i v_i = 0).
-      // (The constraints are those of the point, the same in every field.)
-      const int neighbour = neighbour_points[n];
-      for (int i = 0; i < dim; ++i)
-        for (int k = 0; k < dim; ++k)
-          if (active_.constrained(point, i) || (neighbour >= 0 && active_.constrained(neighbour, k)))
-            row[i * row_length + n * dim + k] = 0.0;
-    }
+    const PetscInt* cols = jacobian_columns_.data() + sa * neighbours;
+    for (int z = jacobian_zeroed_start_[sa]; z < jacobian_zeroed_start_[sa + 1]; ++z) row[jacobian_zeroed_[z]] = 0.0;
     if (!partner.empty() && partner[point] >= 0) {
       // Row b of a body contact takes a's momentum row as it is (R_a + R_b).
       const PetscInt rb = active_.compact_index(partner[point]);
-      TALUS_PETSC(MatSetValuesBlocked(J, 1, &rb, neighbours, cols.data(), row, ADD_VALUES));
+      TALUS_PETSC(MatSetValuesBlocked(J, 1, &rb, neighbours, cols, row, ADD_VALUES));
     }
     if (fields_.field_count > 1 && shared_point(point) && active_.compact_index(point) >= 0 &&
         grid_.is_owned(ijk)) {
@@ -412,7 +429,7 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
         }
     }
     const PetscInt r = active_.compact_index(point);
-    TALUS_PETSC(MatSetValuesBlocked(J, 1, &r, neighbours, cols.data(), row, ADD_VALUES));
+    TALUS_PETSC(MatSetValuesBlocked(J, 1, &r, neighbours, cols, row, ADD_VALUES));
   }
   // The mass on the diagonal blocks, by their owners: m_i I, or on a contact
   // point m_i P_i + Q_i.

@@ -83,7 +83,10 @@ class MomentumSystem {
   // The ghost penalty (ghost_penalty.hpp, docs/solver.md#ghost-penalty) on
   // the step's displacement h v_theta: the momentum rows gain h K h v_theta,
   // the Jacobian h^2 theta K (inside the particles' pattern).
-  void set_ghost_penalty(const GhostPenalty<dim>* ghost) { ghost_ = ghost; }
+  void set_ghost_penalty(const GhostPenalty<dim>* ghost) {
+    ghost_ = ghost;
+    jacobian_layout_built_ = false;  // its cells add slots
+  }
   const GhostPenalty<dim>* ghost_penalty() const { return ghost_; }
 
   // After convergence: grid velocity v^{n+1} (ghosted, constraints applied),
@@ -171,6 +174,12 @@ class MomentumSystem {
   // ghosted point, the points of the slots, their block rows.
   std::vector<int> jacobian_slot_, jacobian_slot_point_;
   std::vector<double> jacobian_rows_;
+  // Built at the step's first Jacobian (jacobian()): each slot's neighbour
+  // columns, and the entries of its block row zeroed by constraints (slot sa's
+  // in jacobian_zeroed_[start[sa], start[sa + 1])).
+  bool jacobian_layout_built_ = false;
+  std::vector<PetscInt> jacobian_columns_;
+  std::vector<int> jacobian_zeroed_start_, jacobian_zeroed_;
   std::vector<double> operator_x_, operator_y_;  // apply_jacobian's ghosted vectors
   Vec evaluated_at_ = nullptr;  // the v of the last evaluation
 
