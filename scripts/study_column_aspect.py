@@ -31,6 +31,8 @@ the deposit has stopped.
     /usr/bin/python3 scripts/study_column_aspect.py                    # a = 0.5, 1, 2, 4, 8; about 40 min
     /usr/bin/python3 scripts/study_column_aspect.py --aspects 2 --levels 10,20
     /usr/bin/python3 scripts/study_column_aspect.py --replot           # table and plot from the kept output
+    /usr/bin/python3 scripts/study_column_aspect.py --friction-angle 40 --levels 20 --steps 0.00125 \
+        --out bench_results/column_aspect_phi40                         # the sensitivity to phi
 
 Writes into OUT (default bench_results/column_aspect/, which git ignores):
 the cases, the talus output, aspect.csv, aspect.md and aspect.png.
@@ -52,7 +54,7 @@ from pvd import pvd_series  # noqa: E402
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 L0 = 0.2
 PPC = 2
-PHI = 30.0
+PHI = 30.0  # the friction angle (deg); --friction-angle changes it, and the floor's mu = tan(phi) with it
 G = 9.81
 
 
@@ -217,7 +219,7 @@ def changes(rows):
     return lines
 
 
-def plot(rows, path):
+def plot(rows, path, overlays=()):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -235,6 +237,13 @@ def plot(rows, path):
                       label=f"talus, cell L0/{cells}, h {step:g} s")
             ax[0].plot([r["a"] for r in sel], [r["runout"] for r in sel], **kw)
             ax[1].plot([r["a"] for r in sel], [r["height"] for r in sel], **kw)
+    for label, extra in overlays:
+        for cells in sorted({r["cells"] for r in extra}):
+            sel = sorted((r for r in extra if r["cells"] == cells and r["step"] == min(x["step"] for x in extra)),
+                         key=lambda r: r["a"])
+            kw = dict(marker="x", color="k", ls="--", label=f"{label}, cell L0/{cells}, h {sel[0]['step']:g} s")
+            ax[0].plot([r["a"] for r in sel], [r["runout"] for r in sel], **kw)
+            ax[1].plot([r["a"] for r in sel], [r["height"] for r in sel], **kw)
     for k, label in enumerate(("run-out (L_f - L0)/L0, L_f = L_99", "final height H_f/L0")):
         ax[k].set_xscale("log")
         ax[k].set_yscale("log")
@@ -242,7 +251,7 @@ def plot(rows, path):
         ax[k].set_ylabel(label)
         ax[k].grid(True, which="both", alpha=0.3)
     ax[0].legend(fontsize=7)
-    fig.suptitle("Column collapse: Mohr-Coulomb phi 30, psi 0, c 0; Coulomb floor mu = tan phi")
+    fig.suptitle(f"Column collapse: Mohr-Coulomb phi {PHI:g}, psi 0, c 0; Coulomb floor mu = tan phi")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
 
@@ -257,12 +266,17 @@ def main():
     p.add_argument("--replot", action="store_true")
     p.add_argument("--append", action="store_true",
                    help="keep the rows of OUT/aspect.csv and add (or replace) the runs of this call")
+    p.add_argument("--overlay", action="append", default=[], metavar="DIR:LABEL",
+                   help="also plot the runs of another study's DIR/aspect.csv (e.g. another friction angle)")
+    p.add_argument("--friction-angle", type=float, default=PHI,
+                   help="the sand's friction angle in degrees (the floor's mu = tan of it); default 30")
     args = p.parse_args()
+    globals()["PHI"] = args.friction_angle
     os.makedirs(args.out, exist_ok=True)
     csv_path = os.path.join(args.out, "aspect.csv")
     keys = [k for k, _, _ in COLUMNS] + ["label"]
-    def read_rows():
-        with open(csv_path) as f:
+    def read_rows(path=None):
+        with open(path or csv_path) as f:
             rows = [{k: (v if k == "label" else float(v)) for k, v in r.items()} for r in csv.DictReader(f)]
         for r in rows:
             for k in ("cells", "particles", "steps", "cutbacks"):
@@ -291,7 +305,11 @@ def main():
     print("\n".join(changes(rows)))
     with open(os.path.join(args.out, "aspect.md"), "w") as f:
         f.write("\n".join(markdown_lines(rows, COLUMNS, text_columns=0)) + "\n\n" + "\n".join(changes(rows)) + "\n")
-    plot(rows, os.path.join(args.out, "aspect.png"))
+    overlays = []
+    for spec in args.overlay:
+        folder, label = spec.split(":", 1)
+        overlays.append((label, read_rows(os.path.join(folder, "aspect.csv"))))
+    plot(rows, os.path.join(args.out, "aspect.png"), overlays)
     print(f"wrote {args.out}/aspect.md and aspect.png")
 
 
