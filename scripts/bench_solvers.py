@@ -33,7 +33,7 @@ import sys
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(REPO, "scripts"))
-from pvd import pvd_series  # noqa: E402
+from pvd import pvd_series, read_particles  # noqa: E402
 
 
 def cpu_of(cmd):
@@ -49,16 +49,9 @@ def cpu_of(cmd):
 def deposit(pvd_path, spacing, wall_x=0.0, wall_band=0.01):
     """(L_99, wall height) of the last output of a 2D run."""
     import numpy as np
-    import vtk
-    from vtk.util.numpy_support import vtk_to_numpy
     _, path = pvd_series(pvd_path)[-1]
-    reader = vtk.vtkXMLPUnstructuredGridReader() if path.endswith(".pvtu") else vtk.vtkXMLUnstructuredGridReader()
-    reader.SetFileName(path)
-    reader.Update()
-    grid = reader.GetOutput()
-    x = vtk_to_numpy(grid.GetPoints().GetData())
-    m = grid.GetPointData().GetArray("mass")
-    m = vtk_to_numpy(m) if m is not None else np.ones(x.shape[0])
+    x, (m,) = read_particles(path, ["mass"])
+    m = m if m is not None else np.ones(x.shape[0])
     order = np.argsort(x[:, 0], kind="stable")
     cumulative = np.cumsum(m[order]) / m.sum()
     k = min(int(np.searchsorted(cumulative, 0.99 - 1e-12)), x.shape[0] - 1)

@@ -61,17 +61,11 @@ REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(REPO, "scripts"))
 from bench_common import markdown_lines, run_talus_case, table_lines  # noqa: E402
 from bench_solvers import deposit  # noqa: E402
-from pvd import pvd_series  # noqa: E402
+from pvd import pvd_series, read_particles  # noqa: E402
 
 
 def read_output(path, names):
-    import vtk
-    from vtk.util.numpy_support import vtk_to_numpy
-    reader = vtk.vtkXMLPUnstructuredGridReader() if path.endswith(".pvtu") else vtk.vtkXMLUnstructuredGridReader()
-    reader.SetFileName(path)
-    reader.Update()
-    data = reader.GetOutput().GetPointData()
-    return [vtk_to_numpy(data.GetArray(n)) for n in names]
+    return read_particles(path, names)[1]
 
 
 # --- the vibrating bar --------------------------------------------------------
@@ -275,15 +269,7 @@ def settle_case(work, label, cell, integrator, steps):
 def settle_error(out):
     import numpy as np
     _, path = pvd_series(os.path.join(out, "particles.pvd"))[-1]
-    import vtk
-    from vtk.util.numpy_support import vtk_to_numpy
-    reader = vtk.vtkXMLPUnstructuredGridReader() if path.endswith(".pvtu") else vtk.vtkXMLUnstructuredGridReader()
-    reader.SetFileName(path)
-    reader.Update()
-    grid = reader.GetOutput()
-    x = vtk_to_numpy(grid.GetPoints().GetData())
-    u = vtk_to_numpy(grid.GetPointData().GetArray("displacement"))
-    stress = vtk_to_numpy(grid.GetPointData().GetArray("stress"))  # xx, yy, zz, xy, yz, xz (Cauchy)
+    x, (u, stress) = read_particles(path, ["displacement", "stress"])  # stress: xx, yy, zz, xy, yz, xz (Cauchy)
     Y = x[:, 1] - u[:, 1]
     exact = -SETTLE_RHO * SETTLE_G * (SETTLE_H - Y)
     return float(np.sqrt(np.mean((stress[:, 1] - exact) ** 2))) / (SETTLE_RHO * SETTLE_G * SETTLE_H)

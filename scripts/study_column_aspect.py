@@ -49,7 +49,7 @@ import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from bench_common import markdown_lines, table_lines  # noqa: E402
-from pvd import pvd_series  # noqa: E402
+from pvd import pvd_series, read_particles  # noqa: E402
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 L0 = 0.2
@@ -125,16 +125,8 @@ def deposit(pvd_path, spacing):
     """(L_99 + d/2, farthest particle + d/2, max y + d/2, kinetic energy per
     unit thickness) of the last output."""
     import numpy as np
-    import vtk
-    from vtk.util.numpy_support import vtk_to_numpy
     _, path = pvd_series(pvd_path)[-1]
-    reader = vtk.vtkXMLPUnstructuredGridReader() if path.endswith(".pvtu") else vtk.vtkXMLUnstructuredGridReader()
-    reader.SetFileName(path)
-    reader.Update()
-    grid = reader.GetOutput()
-    x = vtk_to_numpy(grid.GetPoints().GetData())
-    m = vtk_to_numpy(grid.GetPointData().GetArray("mass"))
-    v = vtk_to_numpy(grid.GetPointData().GetArray("velocity"))
+    x, (m, v) = read_particles(path, ["mass", "velocity"])
     order = np.argsort(x[:, 0], kind="stable")
     cumulative = np.cumsum(m[order]) / m.sum()
     k = min(int(np.searchsorted(cumulative, 0.99 - 1e-12)), x.shape[0] - 1)
