@@ -31,6 +31,9 @@ the deposit has stopped.
     /usr/bin/python3 scripts/study_column_aspect.py                    # a = 0.5, 1, 2, 4, 8; about 40 min
     /usr/bin/python3 scripts/study_column_aspect.py --aspects 2 --levels 10,20
     /usr/bin/python3 scripts/study_column_aspect.py --replot           # table and plot from the kept output
+    /usr/bin/python3 scripts/study_column_aspect.py --aspects 0.5,1 --levels 10,20,40,80 \
+        --out bench_results/column_aspect_low                           # the low columns, one grid more
+    /usr/bin/python3 scripts/study_column_aspect.py --replot --merge bench_results/column_aspect_low
     /usr/bin/python3 scripts/study_column_aspect.py --friction-angle 40 --levels 20 --steps 0.00125 \
         --out bench_results/column_aspect_phi40                         # the sensitivity to phi
 
@@ -258,6 +261,9 @@ def main():
     p.add_argument("--replot", action="store_true")
     p.add_argument("--append", action="store_true",
                    help="keep the rows of OUT/aspect.csv and add (or replace) the runs of this call")
+    p.add_argument("--merge", action="append", default=[], metavar="DIR",
+                   help="with --replot: first take the rows of DIR/aspect.csv into OUT/aspect.csv, "
+                        "replacing rows of the same run (label)")
     p.add_argument("--overlay", action="append", default=[], metavar="DIR:LABEL",
                    help="also plot the runs of another study's DIR/aspect.csv (e.g. another friction angle)")
     p.add_argument("--friction-angle", type=float, default=PHI,
@@ -277,6 +283,16 @@ def main():
 
     if args.replot:
         rows = read_rows()
+        for folder in args.merge:
+            extra = read_rows(os.path.join(folder, "aspect.csv"))
+            labels = {r["label"] for r in extra}
+            rows = sorted([r for r in rows if r["label"] not in labels] + extra,
+                          key=lambda r: (r["a"], r["cells"], -r["step"]))
+        if args.merge:
+            with open(csv_path, "w", newline="") as f:
+                w = csv.DictWriter(f, fieldnames=keys, extrasaction="ignore")
+                w.writeheader()
+                w.writerows(rows)
     else:
         rows = read_rows() if args.append and os.path.exists(csv_path) else []
         for a in [float(x) for x in args.aspects.split(",")]:
