@@ -1,6 +1,7 @@
 // The assembled Jacobian agrees with central finite differences of the
 // residual, on a deformed state (non-zero stress, so the Jaumann rotation
 // terms matter), 2D and 3D, theta = 1 and 1/2, serial and across ranks.
+#include <algorithm>
 #include <catch2/catch.hpp>
 #include <cmath>
 
@@ -20,20 +21,25 @@ const std::string plastic =
     "{name: m, model: drucker_prager, density: 2000, youngs_modulus: 1.0e6, poisson_ratio: 0.3, friction_angle: 30, "
     "dilatancy_angle: 0, cohesion: 5.0e3, hardening_modulus: 1.0e5}";
 
-template <int dim>
-std::string jacobian_case(const std::string& shape, const std::string& faces, const std::string& material) {
-  const std::string lo = dim == 2 ? "[0, 0]" : "[0, 0, 0]";
-  const std::string hi = dim == 2 ? "[1.0, 0.8]" : "[0.6, 0.5, 0.4]";
-  const std::string blo = dim == 2 ? "[0.0, 0.0]" : "[0.0, 0.0, 0.0]";
-  const std::string bhi = dim == 2 ? "[0.63, 0.52]" : "[0.45, 0.3, 0.25]";
-  const std::string g = dim == 2 ? "[0, -9.81]" : "[0, 0, -9.81]";
+// One box of `material` in a grid from the origin to `hi`, cells of 0.1.
+std::string block_case(const std::string& shape, const std::string& hi, const std::string& blo,
+                       const std::string& bhi, const std::string& gravity, const std::string& faces,
+                       const std::string& material) {
+  const std::string lo = std::count(hi.begin(), hi.end(), ',') == 1 ? "[0, 0]" : "[0, 0, 0]";
   return "grid: {lower: " + lo + ", upper: " + hi + ", cell_size: 0.1, shape_function: " + shape +
          "}\n"
          "time: {end: 1, step: 0.01}\n"
          "output: {enabled: false}\n"
-         "gravity: " + g + "\n"
+         "gravity: " + gravity + "\n"
          "materials: [" + material + "]\n"
          "bodies: [{name: b, material: m, box: {lower: " + blo + ", upper: " + bhi + "}}]\n" + faces;
+}
+
+template <int dim>
+std::string jacobian_case(const std::string& shape, const std::string& faces, const std::string& material) {
+  return block_case(shape, dim == 2 ? "[1.0, 0.8]" : "[0.6, 0.5, 0.4]", dim == 2 ? "[0.0, 0.0]" : "[0.0, 0.0, 0.0]",
+                    dim == 2 ? "[0.63, 0.52]" : "[0.45, 0.3, 0.25]", dim == 2 ? "[0, -9.81]" : "[0, 0, -9.81]",
+                    faces, material);
 }
 
 template <int dim>
@@ -200,20 +206,11 @@ namespace {
 // (MomentumSystem writes the spin term out in Voigt form).
 template <int dim>
 void check_spin() {
-  const std::string faces = "boundaries: {}\n";
   // The block away from the grid's faces, so every stencil reproduces the
-  // linear field exactly.
-  const std::string lo = dim == 2 ? "[0, 0]" : "[0, 0, 0]";
-  const std::string hi = dim == 2 ? "[1.2, 1.2]" : "[1.0, 1.0, 1.0]";
-  const std::string blo = dim == 2 ? "[0.3, 0.3]" : "[0.3, 0.3, 0.3]";
-  const std::string bhi = dim == 2 ? "[0.8, 0.7]" : "[0.7, 0.6, 0.65]";
-  CaseConfig config = testing::case_from_yaml(
-      "grid: {lower: " + lo + ", upper: " + hi + ", cell_size: 0.1}\n"
-      "time: {end: 1, step: 0.01}\n"
-      "output: {enabled: false}\n"
-      "gravity: " + std::string(dim == 2 ? "[0, 0]" : "[0, 0, 0]") + "\n"
-      "materials: [" + elastic + "]\n"
-      "bodies: [{name: b, material: m, box: {lower: " + blo + ", upper: " + bhi + "}}]\n" + faces);
+  // linear field exactly; no gravity, no constrained faces.
+  CaseConfig config = testing::case_from_yaml(block_case(
+      "quadratic_bspline", dim == 2 ? "[1.2, 1.2]" : "[1.0, 1.0, 1.0]", dim == 2 ? "[0.3, 0.3]" : "[0.3, 0.3, 0.3]",
+      dim == 2 ? "[0.8, 0.7]" : "[0.7, 0.6, 0.65]", dim == 2 ? "[0, 0]" : "[0, 0, 0]", "boundaries: {}\n", elastic));
   Simulation<dim> sim(config, PETSC_COMM_WORLD);
   Particles<dim>& particles = sim.particles();
   std::vector<Voigt> start;
