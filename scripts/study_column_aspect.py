@@ -36,6 +36,8 @@ the deposit has stopped.
     /usr/bin/python3 scripts/study_column_aspect.py --replot --merge bench_results/column_aspect_low
     /usr/bin/python3 scripts/study_column_aspect.py --friction-angle 40 --levels 20 --steps 0.00125 \
         --out bench_results/column_aspect_phi40                         # the sensitivity to phi
+    /usr/bin/python3 scripts/study_column_aspect.py --quadrature domain --aspects 2 --levels 10,20,40 \
+        --steps 0.00125 --out bench_results/column_aspect_domain        # domain quadrature
 
 Writes into OUT (default bench_results/column_aspect/, which git ignores):
 the cases, the talus output, aspect.csv, aspect.md and aspect.png.
@@ -58,6 +60,7 @@ REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 L0 = 0.2
 PPC = 2
 PHI = 30.0  # the friction angle (deg); --friction-angle changes it, and the floor's mu = tan(phi) with it
+QUADRATURE = "point"  # grid.quadrature; --quadrature domain (docs/grid.md#particle-quadrature)
 G = 9.81
 
 
@@ -95,6 +98,7 @@ grid:
   lower: [0.0, 0.0]
   upper: [{nx * cell:.10g}, {ny * cell:.10g}]
   cell_size: {cell:.10g}
+  quadrature: {QUADRATURE}
 time:
   end: {end:.4f}
   step: {step}
@@ -268,8 +272,11 @@ def main():
                    help="also plot the runs of another study's DIR/aspect.csv (e.g. another friction angle)")
     p.add_argument("--friction-angle", type=float, default=PHI,
                    help="the sand's friction angle in degrees (the floor's mu = tan of it); default 30")
+    p.add_argument("--quadrature", choices=["point", "domain"], default=QUADRATURE,
+                   help="the particles' quadrature (grid.quadrature); default point")
     args = p.parse_args()
     globals()["PHI"] = args.friction_angle
+    globals()["QUADRATURE"] = args.quadrature
     os.makedirs(args.out, exist_ok=True)
     csv_path = os.path.join(args.out, "aspect.csv")
     keys = [k for k, _, _ in COLUMNS] + ["label"]

@@ -71,7 +71,7 @@ Simulation<dim>::Simulation(const CaseConfig& config, MPI_Comm comm) : config_(c
     hi[a] = config.grid.upper[a];
     gravity_[a] = config.gravity[a];
   }
-  grid_ = std::make_unique<Grid<dim>>(comm, lo, hi, config.grid.cell_size, config.grid.shape);
+  grid_ = std::make_unique<Grid<dim>>(comm, lo, hi, config.grid.cell_size, config.grid.shape, config.grid.quadrature);
   particles_ = std::make_unique<Particles<dim>>(comm);
   for (const auto& m : config.materials) materials_.push_back(m.law.get());
   // C^-1 of each material, for the energy balance's elastic energy (docs/energy.md).
@@ -142,7 +142,7 @@ bool Simulation<dim>::balance_ranks(bool always, RankLoad* load) {
 template <int dim>
 void Simulation<dim>::repartition(const Ownership<dim>& ownership) {
   auto grid = std::make_unique<Grid<dim>>(comm_, grid_->lower(), grid_->upper(), grid_->cell_size(), grid_->shape(),
-                                          &ownership);
+                                          grid_->quadrature(), &ownership);
   particles_->migrate(*grid);
   grid_ = std::move(grid);
   last_acceleration_.clear();  // the next step predicts gravity

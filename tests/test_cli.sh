@@ -175,6 +175,11 @@ sed -e "s#directory: .*#directory: $work/linear_out#" -e "s#shape_function: .*#s
 "$talus" check linear.yaml > linear.log 2> linear.err || { echo "FAIL: a linear-hat case was refused"; cat linear.err; exit 1; }
 grep -q "talus: warning: linear.yaml: grid.shape_function = linear has the cell-crossing error of classic MPM" linear.err ||
   { echo "FAIL: no cell-crossing warning"; cat linear.yaml linear.err; exit 1; }
+# ... and without it with GIMP's domain quadrature.
+sed -e "s#shape_function: linear#shape_function: linear\n  quadrature: domain#" linear.yaml > gimp.yaml
+"$talus" check gimp.yaml > gimp.log 2> gimp.err || { echo "FAIL: a GIMP case was refused"; cat gimp.err; exit 1; }
+grep -q "quadrature: domain" gimp.yaml && ! grep -q "cell-crossing" gimp.err ||
+  { echo "FAIL: a GIMP case warned of the cell-crossing error"; cat gimp.yaml gimp.err; exit 1; }
 
 # Arguments that are neither talus's nor PETSc options: exit 2, named, no output.
 refused "--bogus" "command line: unknown option --bogus"

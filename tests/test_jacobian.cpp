@@ -273,3 +273,12 @@ TEST_CASE("a rigid spin rotates the stress by the Jaumann rate, 2D and 3D", "[ja
   check_spin<2>();
   check_spin<3>();
 }
+
+// Domain quadrature (docs/grid.md#particle-quadrature): stencils of 4 (3)
+// functions per axis, block rows of 7^d (5^d) neighbours, ghost width 3 (2).
+TEST_CASE("Jacobian equals finite differences with domain quadrature", "[jacobian][mpi]") {
+  check_jacobian<2>("quadratic_bspline, quadrature: domain", 1.0);
+  check_jacobian<2>("linear, quadrature: domain", 0.5);
+  check_jacobian<3>("quadratic_bspline, quadrature: domain", 1.0, plastic);
+  check_jacobian<2>("quadratic_bspline, quadrature: domain", 0.5, plastic, false, 1.0);
+}

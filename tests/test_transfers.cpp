@@ -49,10 +49,11 @@ Totals<dim> grid_totals(const Grid<dim>& grid, const std::vector<double>& mass, 
 }
 
 template <int dim>
-void check_conservation(ShapeKind kind, TransferScheme scheme, double flip_blend) {
+void check_conservation(ShapeKind kind, TransferScheme scheme, double flip_blend,
+                        ParticleQuadrature quadrature = ParticleQuadrature::point) {
   Vector<dim> lo = Vector<dim>::Zero(), hi;
   if constexpr (dim == 2) hi << 1.0, 0.8; else hi << 0.6, 0.5, 0.4;
-  Grid<dim> grid(PETSC_COMM_WORLD, lo, hi, 0.1, kind);
+  Grid<dim> grid(PETSC_COMM_WORLD, lo, hi, 0.1, kind, quadrature);
   Particles<dim> particles(grid.comm());
   BodyConfig bc;
   bc.box_lower.assign(dim, 0.0);
@@ -71,7 +72,8 @@ void check_conservation(ShapeKind kind, TransferScheme scheme, double flip_blend
   // Random masses, velocities and affine velocities, keyed by particle id.
   {
     FieldView<PetscReal> m(particles.swarm(), field::mass), v(particles.swarm(), field::velocity),
-        c(particles.swarm(), field::affine_velocity), x(particles.swarm(), field::position);
+        c(particles.swarm(), field::affine_velocity), x(particles.swarm(), field::position),
+        F(particles.swarm(), field::deformation_gradient);
     FieldView<std::int64_t> id(particles.swarm(), field::particle_id);
     for (PetscInt p = 0; p < particles.local_count(); ++p) {
       const long k = static_cast<long>(id[p]);
@@ -81,6 +83,8 @@ void check_conservation(ShapeKind kind, TransferScheme scheme, double flip_blend
         x[dim * p + a] += 0.02 * hashed(k, 9 + a);  // off the regular lattice
       }
       for (int a = 0; a < dim * dim; ++a) c[dim * dim * p + a] = 10.0 * hashed(k, 20 + a);
+      // Deformed particles: domains of different sizes and shapes.
+      for (int a = 0; a < dim * dim; ++a) F[dim * dim * p + a] += 0.4 * hashed(k, 40 + a);
     }
   }
   particles.migrate(grid);
@@ -123,6 +127,39 @@ TEST_CASE("P2G/G2P conserve mass and momentum, quadratic B-splines", "[transfer]
   check_conservation<2>(ShapeKind::quadratic_bspline, TransferScheme::flip, 0.95);
   check_conservation<3>(ShapeKind::quadratic_bspline, TransferScheme::apic, 0.0);
   check_conservation<3>(ShapeKind::quadratic_bspline, TransferScheme::flip, 0.95);
+}
+
+TEST_CASE("P2G/G2P conserve mass and momentum, domain quadrature", "[transfer][mpi]") {
+  check_conservation<2>(ShapeKind::quadratic_bspline, TransferScheme::apic, 0.0, ParticleQuadrature::domain);
+  check_conservation<2>(ShapeKind::quadratic_bspline, TransferScheme::flip, 0.95, ParticleQuadrature::domain);
+  check_conservation<3>(ShapeKind::quadratic_bspline, TransferScheme::apic, 0.0, ParticleQuadrature::domain);
+  check_conservation<2>(ShapeKind::linear, TransferScheme::apic, 0.0, ParticleQuadrature::domain);
+}
+
+TEST_CASE("a particle's domain keeps its volume and follows its stretch", "[transfer]") {
+  // Stretches along the axes: r_a = R F_aa (the domains of a lattice stay a
+  // tiling); a rotation leaves the reference half-width R; any F: a box of
+  // volume J V0; a degenerate F: no domain.
+  const double V0 = 0.008, R = 0.1;  // a cube of side 0.2
+  Matrix<3> F = Matrix<3>::Zero();
+  F.diagonal() << 0.95, 1.2, 0.7;
+  const Vector<3> stretched = domain_half_width<3>(V0, F);
+  for (int a = 0; a < 3; ++a) CHECK(stretched[a] == Approx(R * F(a, a)).epsilon(1e-14));
+  const double c = std::cos(0.7), s = std::sin(0.7);
+  Matrix<2> Q;
+  Q << c, -s, s, c;
+  const Vector<2> rotated = domain_half_width<2>(0.04, Q);
+  CHECK(rotated[0] == Approx(R).epsilon(1e-14));
+  CHECK(rotated[1] == Approx(R).epsilon(1e-14));
+  Matrix<3> G;
+  G << 1.1, 0.3, -0.2, 0.05, 0.9, 0.4, 0.1, -0.3, 1.3;
+  const Vector<3> r = domain_half_width<3>(V0, G);
+  CHECK(8 * r.prod() == Approx(G.determinant() * V0).epsilon(1e-14));
+  // The extents keep the ratios of the rows' lengths (the image of a ball's extents).
+  CHECK(r[0] / r[2] == Approx(G.row(0).norm() / G.row(2).norm()).epsilon(1e-14));
+  Matrix<2> flat;
+  flat << 1.0, 2.0, 0.5, 1.0;
+  CHECK(domain_half_width<2>(0.04, flat).norm() == 0.0);
 }
 
 TEST_CASE("P2G/G2P conserve mass and momentum, linear hats", "[transfer][mpi]") {

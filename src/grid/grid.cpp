@@ -10,8 +10,8 @@ namespace talus {
 
 template <int dim>
 Grid<dim>::Grid(MPI_Comm comm, const Vector<dim>& lower, const Vector<dim>& upper, double cell_size,
-                ShapeKind kind, const Ownership<dim>* ownership)
-    : comm_(comm), kind_(kind), h_(cell_size), lower_(lower), upper_(upper) {
+                ShapeKind kind, ParticleQuadrature quadrature, const Ownership<dim>* ownership)
+    : comm_(comm), kind_(kind), quadrature_(quadrature), h_(cell_size), lower_(lower), upper_(upper) {
   for (int a = 0; a < dim; ++a) {
     cells_[a] = static_cast<int>(std::lround((upper[a] - lower[a]) / cell_size));
     if (cells_[a] < 3 || std::abs(cells_[a] * cell_size - (upper[a] - lower[a])) > 1e-9 * cell_size * cells_[a])
@@ -19,7 +19,8 @@ Grid<dim>::Grid(MPI_Comm comm, const Vector<dim>& lower, const Vector<dim>& uppe
                        " must be a whole number (>= 3) of cell_size");
     points_[a] = basis_count(kind, cells_[a]);
   }
-  // Quadratic B-spline stencils reach two points beyond the particle's DMDA cell.
+  // Quadratic B-spline stencils reach two points beyond the particle's DMDA
+  // cell; their Jacobian couples points up to reach() apart.
   const PetscInt width = stencil_width();
   const bool explicit_ranges = ownership && !(*ownership)[0].empty();
   std::array<PetscInt, 3> procs{PETSC_DECIDE, PETSC_DECIDE, PETSC_DECIDE};
@@ -164,8 +165,8 @@ Ownership<dim> Grid<dim>::ownership() const {
 }
 
 template <int dim>
-void Grid<dim>::stencil(const Vector<dim>& x, Stencil<dim>& st) const {
-  evaluate_stencil<dim>(kind_, x - lower_, cells_, h_, st);
+void Grid<dim>::stencil(const Vector<dim>& x, Stencil<dim>& st, const Vector<dim>* half_width) const {
+  evaluate_stencil<dim>(kind_, x - lower_, cells_, h_, st, half_width);
   for (int n = 0; n < st.count; ++n) st.local[n] = local_index(st.node[n]);
 }
 

@@ -115,6 +115,8 @@ CaseFingerprint case_fingerprint(const YAML::Node& doc, const CaseConfig& c) {
   std::string grid = "lower: " + list_text(c.grid.lower) + ", upper: " + list_text(c.grid.upper) +
                      ", cell_size: " + number_text(c.grid.cell_size) +
                      ", shape_function: " + shapes[c.grid.shape == ShapeKind::linear];
+  // Named only when not the default, so that earlier checkpoints still match.
+  if (c.grid.quadrature == ParticleQuadrature::domain) grid += ", quadrature: domain";
   std::string boundaries;
   for (int i = 0; i < 2 * c.dim; ++i) {
     boundaries += (i ? ", " : "") + std::string(face_names[i]) + ": " + face_conditions[static_cast<int>(c.faces[i])];

@@ -338,6 +338,8 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
     c.grid.shape = g.choice("shape_function", {"quadratic_bspline", "linear"}, "quadratic_bspline") == "linear"
                        ? ShapeKind::linear
                        : ShapeKind::quadratic_bspline;
+    c.grid.quadrature = g.choice("quadrature", {"point", "domain"}, "point") == "domain" ? ParticleQuadrature::domain
+                                                                                      : ParticleQuadrature::point;
     // PETSc indexes its vectors with PetscInt: the grid's (m, m v) vector,
     // dim + 1 values per point, must have fewer than 2^31 entries with the
     // Debian PETSc's 32-bit indices.
@@ -532,6 +534,8 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
   // The ghost penalty is defined for quadratic B-splines only
   // (docs/solver.md#ghost-penalty).
   if (c.grid.shape == ShapeKind::linear) c.solver.ghost_penalty = 0.0;
+  // Its default follows the quadrature (parse_solver, run_config.cpp).
+  if (c.grid.quadrature == ParticleQuadrature::domain) c.solver.active_mass_ratio = 1e-9;
   if (root.has("solver")) {
     YamlSection s = root.section("solver");
     parse_solver(s, c);

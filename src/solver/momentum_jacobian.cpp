@@ -21,7 +21,7 @@ bool MomentumSystem<dim>::shared_point(int node) const {
 template <int dim>
 void MomentumSystem<dim>::neighbour_columns(const std::array<int, dim>& ijk, int field, std::vector<PetscInt>& cols,
                                             std::vector<int>* points) const {
-  const int reach = grid_.shape() == ShapeKind::linear ? 1 : 2, width = 2 * reach + 1;
+  const int reach = grid_.reach(), width = 2 * reach + 1;
   int neighbours = 1;
   for (int a = 0; a < dim; ++a) neighbours *= width;
   cols.resize(neighbours);
@@ -51,7 +51,7 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
   // Particle contributions are first summed per (point, neighbour) block on
   // this rank, then handed to PETSc one block row at a time: a point is shared
   // by many particles, so this cuts the matrix insertions by that factor.
-  const int reach = grid_.shape() == ShapeKind::linear ? 1 : 2, width = 2 * reach + 1;
+  const int reach = grid_.reach(), width = 2 * reach + 1;
   int neighbours = 1;
   for (int a = 0; a < dim; ++a) neighbours *= width;
   const int row_length = neighbours * dim;  // values in one scalar row of a block row
@@ -261,12 +261,13 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
 template <int dim>
 Mat MomentumSystem<dim>::create_matrix(MatType type) const {
   // Point i couples with point j when one particle's stencil holds both, so
-  // |i_a - j_a| <= reach on every axis (2 for quadratic B-splines, 1 for hats).
+  // |i_a - j_a| <= reach on every axis (2 for quadratic B-splines, 1 for hats,
+  // one more with domain quadrature).
   // Counting the active points of that neighbourhood gives the block
   // preallocation directly (exact inside a body, an upper bound at its edges;
   // unused slots are squeezed out at assembly). The ghost width equals the
   // reach, so every neighbour's compact index is known on this rank.
-  const int reach = grid_.shape() == ShapeKind::linear ? 1 : 2;
+  const int reach = grid_.reach();
   const PetscInt nloc = active_.owned_count(), nglob = active_.global_count();
   PetscInt first = 0;
   {

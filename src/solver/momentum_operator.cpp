@@ -8,7 +8,7 @@ namespace talus {
 
 template <int dim>
 int MomentumSystem<dim>::stencil_nodes() const {
-  const int width = grid_.shape() == ShapeKind::linear ? 2 : 3;
+  const int width = grid_.reach() + 1;  // stencil functions per axis
   return dim == 2 ? width * width : width * width * width;
 }
 

@@ -3,12 +3,39 @@
 namespace talus {
 
 template <int dim>
+Vector<dim> domain_half_width(double initial_volume, const Matrix<dim>& F) {
+  // The reference domain is a cube of the particle's initial volume. Its
+  // current extent along axis a is taken as that of the image of a ball,
+  // R |F^T e_a| (exact under stretches along the axes, unchanged by a
+  // rotation), scaled so that the box keeps the particle's volume J V0.
+  const double R = 0.5 * std::pow(initial_volume, 1.0 / dim);
+  Vector<dim> r;
+  double product = 1.0;
+  for (int a = 0; a < dim; ++a) {
+    r[a] = F.row(a).norm();
+    product *= r[a];
+  }
+  const double J = F.determinant();
+  if (!(J > 0.0) || !(product > 0.0)) return Vector<dim>::Zero();  // a degenerate particle: point quadrature
+  return R * std::pow(J / product, 1.0 / dim) * r;
+}
+
+template <int dim>
 void compute_stencils(const Grid<dim>& grid, const Particles<dim>& particles, std::vector<Stencil<dim>>& stencils,
                       const std::vector<int>& body_field) {
   const PetscInt n = particles.local_count();
   stencils.resize(n);
   FieldView<PetscReal> x(particles.swarm(), field::position);
-  for (PetscInt p = 0; p < n; ++p) grid.stencil(Eigen::Map<const Vector<dim>>(x.data() + dim * p), stencils[p]);
+  if (grid.quadrature() == ParticleQuadrature::domain) {
+    FieldView<PetscReal> F(particles.swarm(), field::deformation_gradient), V0(particles.swarm(), field::initial_volume);
+    for (PetscInt p = 0; p < n; ++p) {
+      const Vector<dim> r = domain_half_width<dim>(
+          V0[p], Eigen::Map<const Eigen::Matrix<double, dim, dim, Eigen::RowMajor>>(F.data() + dim * dim * p));
+      grid.stencil(Eigen::Map<const Vector<dim>>(x.data() + dim * p), stencils[p], &r);
+    }
+  } else {
+    for (PetscInt p = 0; p < n; ++p) grid.stencil(Eigen::Map<const Vector<dim>>(x.data() + dim * p), stencils[p]);
+  }
   if (body_field.empty()) return;
   FieldView<PetscInt> body(particles.swarm(), field::body_id);
   const int points = grid.ghosted_count();
@@ -47,17 +74,27 @@ void particles_to_grid(const Grid<dim>& grid, const Particles<dim>& particles,
           m(sw, field::mass);
       const PetscInt np = particles.local_count();
       const bool apic = scheme == TransferScheme::apic;
+      const bool domain = grid.quadrature() == ParticleQuadrature::domain;
       for (PetscInt p = 0; p < np; ++p) {
         const Stencil<dim>& st = stencils[p];
         if (field_count > 1 && st.local[0] / n != field) continue;
-        const Eigen::Map<const Vector<dim>> xp(x.data() + dim * p), vp(v.data() + dim * p);
+        const Eigen::Map<const Vector<dim>> vp(v.data() + dim * p);
         const Eigen::Map<const Eigen::Matrix<double, dim, dim, Eigen::RowMajor>> cp(c.data() + dim * dim * p);
+        // The affine velocity is taken about the stencil's centre sum_i S_i x_i,
+        // so that it adds no momentum: the particle's position with point
+        // quadrature; with domain quadrature the centre of its domain, which
+        // differs where the domain is clipped at the grid's faces.
+        Vector<dim> centre = Eigen::Map<const Vector<dim>>(x.data() + dim * p);
+        if (apic && domain) {
+          centre.setZero();
+          for (int k = 0; k < st.count; ++k) centre += st.weight[k] * grid.point_position(st.node[k]);
+        }
         for (int k = 0; k < st.count; ++k) {
           const double w = m[p] * st.weight[k];
           PetscScalar* node = g + bs * (st.local[k] - offset);
           node[0] += w;
           Vector<dim> momentum = w * vp;
-          if (apic) momentum += w * (cp * (grid.point_position(st.node[k]) - xp));
+          if (apic) momentum += w * (cp * (grid.point_position(st.node[k]) - centre));
           for (int a = 0; a < dim; ++a) node[1 + a] += momentum[a];
         }
       }
@@ -123,6 +160,8 @@ void grid_to_particles(Particles<dim>& particles, const std::vector<Stencil<dim>
   }
 }
 
+template Vector<2> domain_half_width<2>(double, const Matrix<2>&);
+template Vector<3> domain_half_width<3>(double, const Matrix<3>&);
 template void compute_stencils<2>(const Grid<2>&, const Particles<2>&, std::vector<Stencil<2>>&,
                                   const std::vector<int>&);
 template void compute_stencils<3>(const Grid<3>&, const Particles<3>&, std::vector<Stencil<3>>&,

@@ -32,7 +32,7 @@ class Grid {
  public:
   // Without `ownership` (or with an empty one) PETSc splits the points evenly.
   Grid(MPI_Comm comm, const Vector<dim>& lower, const Vector<dim>& upper, double cell_size, ShapeKind kind,
-       const Ownership<dim>* ownership = nullptr);
+       ParticleQuadrature quadrature = ParticleQuadrature::point, const Ownership<dim>* ownership = nullptr);
   ~Grid();
   Grid(const Grid&) = delete;
   Grid& operator=(const Grid&) = delete;
@@ -41,6 +41,7 @@ class Grid {
   DM dm() const { return da_; }                  // one scalar per grid point
   DM mass_momentum_dm() const { return da_mp_; }  // (m, m v) per grid point
   ShapeKind shape() const { return kind_; }
+  ParticleQuadrature quadrature() const { return quadrature_; }
   double cell_size() const { return h_; }
   const Vector<dim>& lower() const { return lower_; }
   const Vector<dim>& upper() const { return upper_; }
@@ -67,21 +68,28 @@ class Grid {
   // Rank owning a particle whose owner_points() are `c`, for process columns
   // ending (exclusively) at `ends` along each axis.
   static PetscMPIInt rank_of(const std::array<int, dim>& c, const std::array<std::vector<int>, dim>& ends);
-  // Smallest number of points a process column may own (the DMDA's stencil width).
-  int stencil_width() const { return kind_ == ShapeKind::linear ? 1 : 2; }
+  // Largest index distance, per axis, between two points of one particle's
+  // stencil: two points farther apart never couple in the Jacobian.
+  int reach() const { return (kind_ == ShapeKind::linear ? 1 : 2) + (quadrature_ == ParticleQuadrature::domain); }
+  // The DMDA's ghost width, and the smallest number of points a process
+  // column may own: the reach, so that a rank knows every point its owned
+  // points couple with.
+  int stencil_width() const { return reach(); }
 
   // Values per ghosted node (`fields` blocks of ghosted points, `components`
   // values per point: 1 or dim), each rank's contributions summed over all
   // ranks, complete on owned and ghost points alike.
   std::vector<double> sum_over_ranks(const std::vector<double>& mine, int fields, int components) const;
 
-  // Shape-function stencil of a particle, with ghosted local indices filled in.
-  void stencil(const Vector<dim>& x, Stencil<dim>& st) const;
+  // Shape-function stencil of a particle, with ghosted local indices filled
+  // in; half_width: the particle's domain (domain quadrature only).
+  void stencil(const Vector<dim>& x, Stencil<dim>& st, const Vector<dim>* half_width = nullptr) const;
 
  private:
   MPI_Comm comm_;
   DM da_ = nullptr, da_mp_ = nullptr;
   ShapeKind kind_;
+  ParticleQuadrature quadrature_;
   double h_;
   Vector<dim> lower_, upper_;
   std::array<int, dim> cells_{}, points_{};

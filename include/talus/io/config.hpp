@@ -34,6 +34,8 @@ struct GridConfig {
   std::vector<double> lower, upper;
   double cell_size = 0;
   ShapeKind shape = ShapeKind::quadratic_bspline;
+  // Point (classic MPM) or domain-averaged weights (docs/grid.md#particle-quadrature).
+  ParticleQuadrature quadrature = ParticleQuadrature::point;
   // A case whose estimated memory exceeds this is an input error (default:
   // this machine's physical memory; docs/case_file.md#grid).
   double memory_limit_gb = 0;

@@ -13,6 +13,20 @@
 // face, without over-constraining the neighbouring cells (which zeroing the
 // two outer functions of an unclamped spline would do; see docs/grid.md).
 // Linear hats have n + 1 functions at the cell vertices.
+//
+// Particle quadrature. Classic MPM evaluates the functions at the particle's
+// position ("point"). With "domain" quadrature a particle stands for a box
+// of half-widths r_a around it, and every weight and gradient is the box's
+// average (GIMP, Bardenhagen & Kober 2004, for linear hats; the same average
+// of the quadratic B-splines, e.g. Gan et al. 2018):
+//   S_i(x_p) = (1/|Omega_p|) int_{Omega_p} N_i dV,
+//   grad S_i(x_p) = (1/|Omega_p|) int_{Omega_p} grad N_i dV,
+// so the internal force sum_p V_p sigma_p grad S_i is the exact integral of a
+// stress that is constant on each domain, wherever the particle sits
+// relative to the knots (docs/grid.md#particle-quadrature). Per axis the
+// average spans at most two knot spans (r <= h/2), so a quadratic B-spline
+// stencil has up to 4 functions per axis, a linear one up to 3.
+#include <algorithm>
 #include <array>
 #include <cmath>
 
@@ -21,14 +35,16 @@
 namespace talus {
 
 enum class ShapeKind { linear, quadratic_bspline };
+enum class ParticleQuadrature { point, domain };
 
 // Values and derivatives (per unit length) of the basis functions that are
 // non-zero on one axis at one point: functions first, first+1, ...
 struct Basis1D {
+  static constexpr int max_count = 4;  // 3 at a point; 4 averaged over a domain
   int first = 0;
   int count = 0;
-  double value[3] = {0, 0, 0};
-  double slope[3] = {0, 0, 0};
+  double value[max_count] = {0, 0, 0, 0};
+  double slope[max_count] = {0, 0, 0, 0};
 };
 
 inline int basis_count(ShapeKind kind, int cells) {
@@ -98,11 +114,43 @@ inline Basis1D evaluate_basis_1d(ShapeKind kind, double u, int cells, double h) 
   return b;
 }
 
+// The average over [u - r, u + r] (cell units, clipped to the grid [0, cells])
+// of the basis functions and of their derivatives. The values are exact
+// integrals: the functions are polynomials of degree <= 2 on each knot span,
+// which two Gauss points integrate exactly; the derivative's average is the
+// difference of the end values over the length. r is capped at 1/2 (a domain
+// at most one cell long): beyond, the stencil would need a fifth function.
+inline Basis1D evaluate_domain_basis_1d(ShapeKind kind, double u, double r, int cells, double h) {
+  r = std::min(r, 0.5);
+  const double a = std::max(u - r, 0.0), b = std::min(u + r, static_cast<double>(cells));
+  if (!(b - a > 1e-12)) return evaluate_basis_1d(kind, std::clamp(u, 0.0, static_cast<double>(cells)), cells, h);
+  const int span_a = std::min(static_cast<int>(std::floor(a)), cells - 1);
+  const int span_b = std::clamp(static_cast<int>(std::ceil(b)) - 1, span_a, cells - 1);
+  Basis1D out;
+  out.first = span_a;
+  out.count = span_b - span_a + (kind == ShapeKind::linear ? 2 : 3);
+  const double inv_length = 1.0 / (b - a), gauss = 0.5 / std::sqrt(3.0);
+  for (int s = span_a; s <= span_b; ++s) {
+    const double lo = std::max(a, double(s)), hi = std::min(b, double(s + 1));
+    if (!(hi > lo)) continue;
+    const double mid = 0.5 * (lo + hi), len = hi - lo;
+    for (const double g : {mid - gauss * len, mid + gauss * len}) {
+      const Basis1D at = evaluate_basis_1d(kind, g, cells, h);
+      for (int i = 0; i < at.count; ++i) out.value[at.first - out.first + i] += 0.5 * len * inv_length * at.value[i];
+    }
+  }
+  const Basis1D end_a = evaluate_basis_1d(kind, a, cells, h), end_b = evaluate_basis_1d(kind, b, cells, h);
+  const double per_length = inv_length / h;
+  for (int i = 0; i < end_b.count; ++i) out.slope[end_b.first - out.first + i] += per_length * end_b.value[i];
+  for (int i = 0; i < end_a.count; ++i) out.slope[end_a.first - out.first + i] -= per_length * end_a.value[i];
+  return out;
+}
+
 // The tensor-product stencil of one particle: the grid functions that are
 // non-zero at its position, their values and gradients.
 template <int dim>
 struct Stencil {
-  static constexpr int max_nodes = dim == 2 ? 9 : 27;
+  static constexpr int max_nodes = dim == 2 ? 16 : 64;  // 4 per axis (domain quadrature)
   int count = 0;
   std::array<std::array<int, dim>, max_nodes> node;  // global grid index (i, j[, k])
   std::array<int, max_nodes> local;                  // index in the rank's ghosted node arrays
@@ -110,12 +158,16 @@ struct Stencil {
   std::array<Vector<dim>, max_nodes> gradient;
 };
 
-// x_rel: position relative to the grid's lower corner (physical units).
+// x_rel: position relative to the grid's lower corner (physical units);
+// half_width: the particle's domain (physical units), or none for point
+// quadrature.
 template <int dim>
 inline void evaluate_stencil(ShapeKind kind, const Vector<dim>& x_rel, const std::array<int, dim>& cells,
-                             double h, Stencil<dim>& st) {
+                             double h, Stencil<dim>& st, const Vector<dim>* half_width = nullptr) {
   std::array<Basis1D, dim> b;
-  for (int a = 0; a < dim; ++a) b[a] = evaluate_basis_1d(kind, x_rel[a] / h, cells[a], h);
+  for (int a = 0; a < dim; ++a)
+    b[a] = half_width ? evaluate_domain_basis_1d(kind, x_rel[a] / h, (*half_width)[a] / h, cells[a], h)
+                      : evaluate_basis_1d(kind, x_rel[a] / h, cells[a], h);
   int n = 0;
   if constexpr (dim == 2) {
     for (int j = 0; j < b[1].count; ++j)

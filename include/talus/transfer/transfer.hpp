@@ -38,6 +38,12 @@ struct GridFields {
 // With `body_field` (the velocity field of each body, more than one field)
 // a particle's stencil indexes the nodes of its body's field:
 // Stencil::local holds f * ghosted points + the ghosted point.
+// The half-widths of a particle's domain for domain quadrature
+// (docs/grid.md#particle-quadrature): a box of the particle's volume J V0
+// whose extents follow its stretch along the axes; zero if F is degenerate.
+template <int dim>
+Vector<dim> domain_half_width(double initial_volume, const Matrix<dim>& F);
+
 template <int dim>
 void compute_stencils(const Grid<dim>& grid, const Particles<dim>& particles, std::vector<Stencil<dim>>& stencils,
                       const std::vector<int>& body_field = {});
