@@ -275,12 +275,17 @@ double estimated_particles(const CaseConfig& c) {
 
 // Measured peak memory (2026-11-25, one rank): the process itself about
 // 60 MB; per grid point 250 B (2D) and 320 B (3D): the ghosted grid arrays
-// are dense over the whole box; per particle 1.7 kB (2D) and 6.3 kB (3D):
-// the swarm fields, the stencils, and the Jacobian and its incomplete
-// factors (whose rows are the active points near the particles). With 20 %
-// to spare.
-double estimated_memory_gb(int dim, double points, double particles) {
-  const double bytes = 60e6 + 1.2 * (points * (dim == 2 ? 250.0 : 320.0) + particles * (dim == 2 ? 1700.0 : 6300.0));
+// are dense over the whole box; per particle (2026-11-26, after the
+// stencils were sized for domain quadrature: 80,000 particles in 2D, 65,536
+// in 3D) 2.1 kB (2D) and 8.6 kB (3D) with point quadrature, 3.0 kB and
+// 15.3 kB with domain quadrature: the swarm fields, the stencils, and the
+// Jacobian and its incomplete factors (whose rows are the active points
+// near the particles; domain quadrature's couple 7^d points, not 5^d).
+// With 20 % to spare.
+double estimated_memory_gb(int dim, double points, double particles, ParticleQuadrature quadrature) {
+  const bool domain = quadrature == ParticleQuadrature::domain;
+  const double per_particle = dim == 2 ? (domain ? 3000.0 : 2100.0) : (domain ? 15300.0 : 8600.0);
+  const double bytes = 60e6 + 1.2 * (points * (dim == 2 ? 250.0 : 320.0) + particles * per_particle);
   return bytes / 1e9;
 }
 
@@ -549,7 +554,7 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
     // (docs/case_file.md#grid): a case that cannot fit stops here instead of
     // growing past the machine's memory in its setup.
     const double particles = estimated_particles(c);
-    const double gb = estimated_memory_gb(c.dim, grid_points(c), particles);
+    const double gb = estimated_memory_gb(c.dim, grid_points(c), particles, c.grid.quadrature);
     if (gb > c.grid.memory_limit_gb) {
       YamlSection g = root.section("grid");
       std::ostringstream m;
