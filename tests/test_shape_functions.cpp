@@ -10,17 +10,26 @@ using namespace talus;
 
 namespace {
 
+// With `domain`, the averages over boxes of random half-widths up to the cap
+// h/2 (docs/grid.md#particle-quadrature), clipped at the faces: their first
+// moment is the centre of the (clipped) box.
 template <int dim>
-void check_random_points(ShapeKind kind) {
-  std::mt19937 rng(7);
+void check_random_points(ShapeKind kind, bool domain = false) {
+  std::mt19937 rng(domain ? 13 : 7);
   const double h = 0.37;
   std::array<int, dim> cells;
   for (int a = 0; a < dim; ++a) cells[a] = 5 + a;  // small grids: most points sit in boundary spans
   Stencil<dim> st;
   for (int trial = 0; trial < 2000; ++trial) {
-    Vector<dim> x;
-    for (int a = 0; a < dim; ++a) x[a] = std::uniform_real_distribution<double>(0.0, cells[a] * h)(rng);
-    evaluate_stencil<dim>(kind, x, cells, h, st);
+    Vector<dim> x, r, centre;
+    for (int a = 0; a < dim; ++a) {
+      x[a] = std::uniform_real_distribution<double>(0.0, cells[a] * h)(rng);
+      if (!domain) continue;
+      r[a] = std::uniform_real_distribution<double>(0.01 * h, 0.5 * h)(rng);
+      centre[a] = 0.5 * (std::max(x[a] - r[a], 0.0) + std::min(x[a] + r[a], cells[a] * h));
+    }
+    if (!domain) centre = x;
+    evaluate_stencil<dim>(kind, x, cells, h, st, domain ? &r : nullptr);
     double sum = 0.0;
     Vector<dim> grad_sum = Vector<dim>::Zero(), x_rep = Vector<dim>::Zero();
     Matrix<dim> grad_rep = Matrix<dim>::Zero();
@@ -36,37 +45,47 @@ void check_random_points(ShapeKind kind) {
     // Round-off of a few dozen products of O(1) numbers: 1e-13 is ~500 ulp.
     CHECK(sum == Approx(1.0).margin(1e-13));
     CHECK(grad_sum.norm() * h == Approx(0.0).margin(1e-12));
-    CHECK((x_rep - x).norm() / h == Approx(0.0).margin(1e-12));  // sum N_i x_i = x
+    CHECK((x_rep - centre).norm() / h == Approx(0.0).margin(1e-12));  // sum N_i x_i = x
     CHECK((grad_rep - Matrix<dim>::Identity()).norm() == Approx(0.0).margin(1e-12));  // sum x_i grad N_i = I
   }
 }
 
 // Gradient against a central difference of the values (catches a wrong slope
-// formula that would still sum to zero).
+// formula that would still sum to zero). With `domain`, grad S_i is the
+// derivative of S_i with respect to the particle's position (d/dx of the
+// average over [x - r, x + r] is the end-point difference over 2r), away
+// from the faces.
 template <int dim>
-void check_gradient_by_differences(ShapeKind kind) {
-  std::mt19937 rng(11);
+void check_gradient_by_differences(ShapeKind kind, bool domain = false) {
+  std::mt19937 rng(domain ? 17 : 11);
   const double h = 0.5, d = 1e-6;
   std::array<int, dim> cells;
   for (int a = 0; a < dim; ++a) cells[a] = 6;
   Stencil<dim> st, sp, sm;
+  int compared = 0;
   for (int trial = 0; trial < 500; ++trial) {
-    Vector<dim> x;
-    for (int a = 0; a < dim; ++a) x[a] = std::uniform_real_distribution<double>(0.01, cells[a] * h - 0.01)(rng);
-    evaluate_stencil<dim>(kind, x, cells, h, st);
+    Vector<dim> x, r = Vector<dim>::Zero();
+    for (int a = 0; a < dim; ++a) {
+      if (domain) r[a] = std::uniform_real_distribution<double>(0.05 * h, 0.5 * h)(rng);
+      x[a] = std::uniform_real_distribution<double>(r[a] + 0.01, cells[a] * h - r[a] - 0.01)(rng);
+    }
+    const Vector<dim>* half_width = domain ? &r : nullptr;
+    evaluate_stencil<dim>(kind, x, cells, h, st, half_width);
     for (int a = 0; a < dim; ++a) {
       Vector<dim> xp = x, xm = x;
       xp[a] += d;
       xm[a] -= d;
-      evaluate_stencil<dim>(kind, xp, cells, h, sp);
-      evaluate_stencil<dim>(kind, xm, cells, h, sm);
-      if (sp.node[0] != st.node[0] || sm.node[0] != st.node[0]) continue;  // crossed a knot: skip
-      for (int k = 0; k < st.count; ++k) {
+      evaluate_stencil<dim>(kind, xp, cells, h, sp, half_width);
+      evaluate_stencil<dim>(kind, xm, cells, h, sm, half_width);
+      if (sp.node[0] != st.node[0] || sm.node[0] != st.node[0] || sp.count != st.count || sm.count != st.count)
+        continue;  // crossed a knot: skip
+      for (int k = 0; k < st.count; ++k, ++compared) {
         const double fd = (sp.weight[k] - sm.weight[k]) / (2 * d);
         CHECK(st.gradient[k][a] == Approx(fd).margin(1e-7));  // O(d^2) truncation + 1e-16/d round-off
       }
     }
   }
+  CHECK(compared > 1000);
 }
 
 }  // namespace
@@ -107,80 +126,6 @@ TEST_CASE("clamped quadratic B-spline is interpolatory on the faces", "[shape]")
 // gradients averaged over a particle's box.
 namespace {
 
-// The averaged stencil at random points with random half-widths up to the
-// cap h/2, boundary cells included (where the box is clipped to the grid):
-// a partition of unity whose first moment is the centre of the (clipped)
-// box, gradients summing to zero and sum_i x_i grad S_i = I.
-template <int dim>
-void check_domain_moments(ShapeKind kind) {
-  std::mt19937 rng(13);
-  const double h = 0.37;
-  std::array<int, dim> cells;
-  for (int a = 0; a < dim; ++a) cells[a] = 5 + a;
-  Stencil<dim> st;
-  for (int trial = 0; trial < 2000; ++trial) {
-    Vector<dim> x, r, centre;
-    for (int a = 0; a < dim; ++a) {
-      x[a] = std::uniform_real_distribution<double>(0.0, cells[a] * h)(rng);
-      r[a] = std::uniform_real_distribution<double>(0.01 * h, 0.5 * h)(rng);
-      centre[a] = 0.5 * (std::max(x[a] - r[a], 0.0) + std::min(x[a] + r[a], cells[a] * h));
-    }
-    evaluate_stencil<dim>(kind, x, cells, h, st, &r);
-    double sum = 0.0;
-    Vector<dim> grad_sum = Vector<dim>::Zero(), x_rep = Vector<dim>::Zero();
-    Matrix<dim> grad_rep = Matrix<dim>::Zero();
-    for (int k = 0; k < st.count; ++k) {
-      REQUIRE(st.weight[k] >= -1e-15);
-      Vector<dim> xi;
-      for (int a = 0; a < dim; ++a) xi[a] = h * basis_position(kind, st.node[k][a], cells[a]);
-      sum += st.weight[k];
-      grad_sum += st.gradient[k];
-      x_rep += st.weight[k] * xi;
-      grad_rep += xi * st.gradient[k].transpose();
-    }
-    // The same round-off bounds as check_random_points.
-    CHECK(sum == Approx(1.0).margin(1e-13));
-    CHECK(grad_sum.norm() * h == Approx(0.0).margin(1e-12));
-    CHECK((x_rep - centre).norm() / h == Approx(0.0).margin(1e-12));
-    CHECK((grad_rep - Matrix<dim>::Identity()).norm() == Approx(0.0).margin(1e-12));
-  }
-}
-
-// grad S_i is the derivative of S_i with respect to the particle's position
-// (d/dx of the average over [x - r, x + r] is the end-point difference over
-// 2r): checked by central differences away from the faces.
-template <int dim>
-void check_domain_gradient_by_differences(ShapeKind kind) {
-  std::mt19937 rng(17);
-  const double h = 0.5, d = 1e-6;
-  std::array<int, dim> cells;
-  for (int a = 0; a < dim; ++a) cells[a] = 6;
-  Stencil<dim> st, sp, sm;
-  int compared = 0;
-  for (int trial = 0; trial < 500; ++trial) {
-    Vector<dim> x, r;
-    for (int a = 0; a < dim; ++a) {
-      r[a] = std::uniform_real_distribution<double>(0.05 * h, 0.5 * h)(rng);
-      x[a] = std::uniform_real_distribution<double>(r[a] + 0.01, cells[a] * h - r[a] - 0.01)(rng);
-    }
-    evaluate_stencil<dim>(kind, x, cells, h, st, &r);
-    for (int a = 0; a < dim; ++a) {
-      Vector<dim> xp = x, xm = x;
-      xp[a] += d;
-      xm[a] -= d;
-      evaluate_stencil<dim>(kind, xp, cells, h, sp, &r);
-      evaluate_stencil<dim>(kind, xm, cells, h, sm, &r);
-      if (sp.node[0] != st.node[0] || sm.node[0] != st.node[0] || sp.count != st.count || sm.count != st.count)
-        continue;  // an end of the box crossed a knot: skip
-      for (int k = 0; k < st.count; ++k, ++compared) {
-        const double fd = (sp.weight[k] - sm.weight[k]) / (2 * d);
-        CHECK(st.gradient[k][a] == Approx(fd).margin(1e-7));  // as check_gradient_by_differences
-      }
-    }
-  }
-  CHECK(compared > 1000);
-}
-
 // Uniform cubic B-spline (support [-2, 2]) and uniform quadratic B-spline
 // (support [-3/2, 3/2]), in cell units.
 double cubic_bspline(double t) {
@@ -195,16 +140,16 @@ double quadratic_bspline(double t) {
 }  // namespace
 
 TEST_CASE("domain quadrature: partition of unity and linear reproduction", "[shape]") {
-  check_domain_moments<2>(ShapeKind::quadratic_bspline);
-  check_domain_moments<3>(ShapeKind::quadratic_bspline);
-  check_domain_moments<2>(ShapeKind::linear);
-  check_domain_moments<3>(ShapeKind::linear);
+  check_random_points<2>(ShapeKind::quadratic_bspline, true);
+  check_random_points<3>(ShapeKind::quadratic_bspline, true);
+  check_random_points<2>(ShapeKind::linear, true);
+  check_random_points<3>(ShapeKind::linear, true);
 }
 
 TEST_CASE("domain quadrature: gradients are derivatives of the averaged weights", "[shape]") {
-  check_domain_gradient_by_differences<2>(ShapeKind::quadratic_bspline);
-  check_domain_gradient_by_differences<3>(ShapeKind::quadratic_bspline);
-  check_domain_gradient_by_differences<2>(ShapeKind::linear);
+  check_gradient_by_differences<2>(ShapeKind::quadratic_bspline, true);
+  check_gradient_by_differences<3>(ShapeKind::quadratic_bspline, true);
+  check_gradient_by_differences<2>(ShapeKind::linear, true);
 }
 
 TEST_CASE("domain quadrature over a whole cell: the next B-spline degree", "[shape]") {
