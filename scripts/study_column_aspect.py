@@ -36,6 +36,8 @@ the deposit has stopped.
     /usr/bin/python3 scripts/study_column_aspect.py --replot --merge bench_results/column_aspect_low
     /usr/bin/python3 scripts/study_column_aspect.py --friction-angle 40 --levels 20 --steps 0.00125 \
         --out bench_results/column_aspect_phi40                         # the sensitivity to phi
+    /usr/bin/python3 scripts/study_column_aspect.py --floor fixed --out bench_results/column_aspect_fixed
+                                                                        # the no-slip floor
     /usr/bin/python3 scripts/study_column_aspect.py --quadrature domain --aspects 2 --levels 10,20,40 \
         --steps 0.00125 --out bench_results/column_aspect_domain        # domain quadrature
 
@@ -61,6 +63,7 @@ L0 = 0.2
 PPC = 2
 PHI = 30.0  # the friction angle (deg); --friction-angle changes it, and the floor's mu = tan(phi) with it
 QUADRATURE = "point"  # grid.quadrature; --quadrature domain (docs/grid.md#particle-quadrature)
+FLOOR = "frictional"  # the floor: a Coulomb face with mu = tan(phi), or --floor fixed (no slip)
 G = 9.81
 
 
@@ -82,6 +85,12 @@ def lube_height(a):
 
 def end_time(a):
     return max(1.0, 4.5 * math.sqrt(a * L0 / G))
+
+
+def floor_text():
+    if FLOOR == "fixed":
+        return "fixed"
+    return f"{{condition: frictional, friction: {math.tan(math.radians(PHI)):.6f}}}"
 
 
 def case_text(a, cells_per_width, step, out):
@@ -123,7 +132,7 @@ bodies:
 boundaries:
   x_min: slip
   x_max: slip
-  y_min: {{condition: frictional, friction: {math.tan(math.radians(PHI)):.6f}}}
+  y_min: {floor_text()}
   y_max: slip
 """
 
@@ -250,7 +259,8 @@ def plot(rows, path, overlays=()):
         ax[k].set_ylabel(label)
         ax[k].grid(True, which="both", alpha=0.3)
     ax[0].legend(fontsize=7)
-    fig.suptitle(f"Column collapse: Mohr-Coulomb phi {PHI:g}, psi 0, c 0; Coulomb floor mu = tan phi")
+    floor = "no-slip floor" if FLOOR == "fixed" else "Coulomb floor mu = tan phi"
+    fig.suptitle(f"Column collapse: Mohr-Coulomb phi {PHI:g}, psi 0, c 0; {floor}")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
 
@@ -272,11 +282,14 @@ def main():
                    help="also plot the runs of another study's DIR/aspect.csv (e.g. another friction angle)")
     p.add_argument("--friction-angle", type=float, default=PHI,
                    help="the sand's friction angle in degrees (the floor's mu = tan of it); default 30")
+    p.add_argument("--floor", choices=["frictional", "fixed"], default=FLOOR,
+                   help="the floor: a Coulomb face with mu = tan(phi) (default) or no slip")
     p.add_argument("--quadrature", choices=["point", "domain"], default=QUADRATURE,
                    help="the particles' quadrature (grid.quadrature); default point")
     args = p.parse_args()
     globals()["PHI"] = args.friction_angle
     globals()["QUADRATURE"] = args.quadrature
+    globals()["FLOOR"] = args.floor
     os.makedirs(args.out, exist_ok=True)
     csv_path = os.path.join(args.out, "aspect.csv")
     keys = [k for k, _, _ in COLUMNS] + ["label"]

@@ -27,10 +27,11 @@ using namespace talus;
 namespace {
 
 // interval > 0: also a checkpoint every `interval` steps. `time`: the time
-// keys besides `end` (a step that divides the checkpoint's time exactly).
+// keys besides `end` (a step that divides the checkpoint's time exactly);
+// `grid`: more grid keys.
 std::string column(double end, const std::string& directory, long interval = 0,
-                   const std::string& time = "step: 0.00390625") {
-  return "grid: {lower: [0, 0], upper: [3.0, 1.2], cell_size: 0.05}\n"
+                   const std::string& time = "step: 0.00390625", const std::string& grid = "") {
+  return "grid: {lower: [0, 0], upper: [3.0, 1.2], cell_size: 0.05" + grid + "}\n"
          "time: {end: " + std::to_string(end) + ", " + time + "}\n"
          "output: {enabled: false}\n"
          "checkpoint: {enabled: true, interval: " + std::to_string(interval) + ", directory: " + directory + "}\n"
@@ -46,14 +47,14 @@ double max_relative_difference(const std::vector<double>& a, const std::vector<d
   return testing::max_relative_difference(a, b);
 }
 
-void restart_repeats_the_run(const std::string& time, const std::string& label) {
+void restart_repeats_the_run(const std::string& time, const std::string& label, const std::string& grid = "") {
   const std::string dir = "checkpoint_" + label + "_" + std::to_string(testing::comm_size(PETSC_COMM_WORLD));
   int rank;
   MPI_Comm_rank(PETSC_COMM_WORLD, &rank);
   if (rank == 0) std::filesystem::remove_all(dir);
   MPI_Barrier(PETSC_COMM_WORLD);
 
-  Simulation<2> first(testing::case_from_yaml(column(0.125, dir + "/first", 0, time)), PETSC_COMM_WORLD);
+  Simulation<2> first(testing::case_from_yaml(column(0.125, dir + "/first", 0, time, grid)), PETSC_COMM_WORLD);
   const RunSummary f = first.run(nullptr);
   REQUIRE(std::filesystem::exists(f.last_checkpoint));
   // The uninterrupted run writes the same checkpoint on its way: the solver
@@ -61,9 +62,9 @@ void restart_repeats_the_run(const std::string& time, const std::string& label) 
   // checkpoint a run builds it anew, as the restarted run must
   // (docs/checkpoints.md). Without that the two runs would make different
   // linear solves and agree only to the solver tolerance, not to round-off.
-  Simulation<2> whole(testing::case_from_yaml(column(0.25, dir + "/whole", f.steps, time)), PETSC_COMM_WORLD);
+  Simulation<2> whole(testing::case_from_yaml(column(0.25, dir + "/whole", f.steps, time, grid)), PETSC_COMM_WORLD);
   const RunSummary w = whole.run(nullptr);
-  Simulation<2> second(testing::case_from_yaml(column(0.25, dir + "/second", 0, time)), PETSC_COMM_WORLD);
+  Simulation<2> second(testing::case_from_yaml(column(0.25, dir + "/second", 0, time, grid)), PETSC_COMM_WORLD);
   second.restart(f.last_checkpoint);
   CHECK(second.time() == first.time());
   for (const auto& [name, block] : {std::pair{field::position, 2}, std::pair{field::velocity, 2},
@@ -105,7 +106,7 @@ void restart_repeats_the_run(const std::string& time, const std::string& label) 
   const auto eps_p = testing::gather_by_id(whole.particles(), field::cumulative_plastic_strain, 1);
   CHECK(*std::max_element(eps_p.begin(), eps_p.end()) > 0.05);
   // A missing checkpoint is an input error.
-  Simulation<2> bad(testing::case_from_yaml(column(0.25, dir + "/bad", 0, time)), PETSC_COMM_WORLD);
+  Simulation<2> bad(testing::case_from_yaml(column(0.25, dir + "/bad", 0, time, grid)), PETSC_COMM_WORLD);
   CHECK_THROWS_AS(bad.restart(dir + "/none.h5"), InputError);
   MPI_Barrier(PETSC_COMM_WORLD);
   if (rank == 0) std::filesystem::remove_all(dir);
@@ -115,6 +116,13 @@ void restart_repeats_the_run(const std::string& time, const std::string& label) 
 
 TEST_CASE("a run restarted from a checkpoint repeats the uninterrupted run", "[checkpoint][mpi]") {
   restart_repeats_the_run("step: 0.00390625", "implicit");
+}
+
+// Domain quadrature (docs/grid.md#particle-quadrature): the domains come
+// from F and V0, both in the checkpoint, so the restart repeats the run too.
+TEST_CASE("a run with domain quadrature restarted from a checkpoint repeats the uninterrupted run",
+          "[checkpoint][mpi]") {
+  restart_repeats_the_run("step: 0.00390625", "domain", ", quadrature: domain");
 }
 
 // The explicit integrator (docs/explicit.md) at 2^-10 s, below its limit of
