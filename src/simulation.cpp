@@ -111,7 +111,8 @@ Simulation<dim>::Simulation(const CaseConfig& config, MPI_Comm comm) : config_(c
   apply_case_petsc_options(config);
   check_solver_options<dim>(config, comm);
   newton_ = std::make_unique<NewtonSolver<dim>>(comm, config.solver.direct_solver_limit,
-                                                config.solver.balance_tolerance, config.contact.field_count);
+                                                config.solver.balance_tolerance, config.contact.field_count,
+                                                config.grid.quadrature);
   // Seeded on PETSc's even split of the box; now follow the particles.
   balance_ranks(true);
   rebalances_ = 0;  // the initial partition is not a re-partition during the run

@@ -60,7 +60,8 @@ class NewtonSolver {
   // balance_tolerance: the bound on U above.
   // velocity_fields: bodies in contact (docs/contact.md#bodies-in-contact)
   // make the 3D incomplete factors one level deeper.
-  NewtonSolver(MPI_Comm comm, PetscInt direct_limit, double balance_tolerance, int velocity_fields = 1);
+  NewtonSolver(MPI_Comm comm, PetscInt direct_limit, double balance_tolerance, int velocity_fields = 1,
+               ParticleQuadrature quadrature = ParticleQuadrature::point);
   ~NewtonSolver();
   NewtonSolver(const NewtonSolver&) = delete;
   NewtonSolver& operator=(const NewtonSolver&) = delete;
@@ -164,6 +165,7 @@ class NewtonSolver {
   MPI_Comm comm_;
   PetscInt direct_limit_;
   int velocity_fields_ = 1;
+  ParticleQuadrature quadrature_ = ParticleQuadrature::point;  // sets the default ILU fill (configure)
   PetscInt fallback_limit_ = 0;  // -talus_direct_fallback_limit
   // Newton starts from v^n + h a with a the grid point's acceleration of the
   // last step (-talus_newton_predictor last, the default) or a = g (gravity).
