@@ -37,11 +37,8 @@ void parse_equilibrium(YamlSection& e, CaseConfig& c) {
 }
 
 void parse_solver(YamlSection& s, CaseConfig& c) {
-  // Domain quadrature gives a function the body barely enters (by delta) a
-  // mass of order delta^3 per axis instead of delta^2: points of 1e-12 of a
-  // particle's mass then make singular pivots (docs/grid.md#particle-quadrature).
-  const double default_ratio = c.grid.quadrature == ParticleQuadrature::domain ? 1e-9 : 1e-12;
-  c.solver.active_mass_ratio = s.real("active_mass_ratio", default_ratio);
+  // The default is set before (parse_root: it follows the quadrature).
+  c.solver.active_mass_ratio = s.real("active_mass_ratio", c.solver.active_mass_ratio);
   if (!(c.solver.active_mass_ratio >= 0 && c.solver.active_mass_ratio < 1))
     s.fail_value("active_mass_ratio", "must be in [0, 1)");
   c.solver.direct_solver_limit = s.integer("direct_solver_limit", SolverConfig::default_direct_solver_limit);

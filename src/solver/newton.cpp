@@ -1,4 +1,6 @@
 #include "talus/solver/newton.hpp"
+#include "newton_convergence.hpp"
+#include "newton_option_readers.hpp"
 #include "talus/solver/petsc_options.hpp"
 
 #include <cerrno>
@@ -72,52 +74,6 @@ PetscErrorCode operator_mult(Mat J, Vec x, Vec y) {
   PetscCall(MatShellGetContext(J, &ctx));
   auto* context = static_cast<typename NewtonSolver<dim>::CallbackContext*>(ctx);
   return petsc_callback([&] { context->system->apply_jacobian(x, y); });
-}
-
-// The physical test (newton.hpp): U = ||F||_1 / S <= tolerance. F is in
-// impulse units on every row (momentum rows, m_i v_i = 0 on constrained
-// components, the natural map on contact rows), so ||F||_1 is the total
-// unbalanced impulse of the step. Divergence: NaN, the iteration limit, or
-// stagnation: no new smallest U for stagnation_window iterations. Full
-// semismooth Newton steps that have stopped reducing U are cycling between
-// branches of the return map or the cone (docs/solver.md#stagnation); they
-// did not recover in our runs, so the step is cut back at once instead of
-// after the iteration limit.
-template <int dim>
-PetscErrorCode physical_convergence(SNES snes, PetscInt it, PetscReal, PetscReal, PetscReal fnorm,
-                                    SNESConvergedReason* reason, void* ctx) {
-  auto* scale = static_cast<typename NewtonSolver<dim>::Scale*>(ctx);
-  *reason = SNES_CONVERGED_ITERATING;
-  if (std::isnan(fnorm) || std::isinf(fnorm)) {
-    *reason = SNES_DIVERGED_FNORM_NAN;
-    return 0;
-  }
-  Vec F;
-  PetscErrorCode ierr = SNESGetFunction(snes, &F, nullptr, nullptr);
-  if (ierr) return ierr;
-  PetscReal total = 0.0;
-  ierr = VecNorm(F, NORM_1, &total);
-  if (ierr) return ierr;
-  scale->unbalance = total / scale->impulse;
-  PetscInt max_it = 0;
-  ierr = SNESGetTolerances(snes, nullptr, nullptr, nullptr, &max_it, nullptr);
-  if (ierr) return ierr;
-  scale->history.push_back(scale->unbalance);
-  if (it == 0 || scale->unbalance < scale->best) {
-    scale->best = scale->unbalance;
-    scale->best_iteration = it;
-  }
-  if (scale->linear_failures && *scale->linear_failures > 0)
-    *reason = SNES_DIVERGED_LINEAR_SOLVE;  // the iterate followed an unsolved system
-  else if (scale->unbalance <= scale->tolerance)
-    *reason = SNES_CONVERGED_FNORM_ABS;
-  else if (it >= max_it)
-    *reason = SNES_DIVERGED_MAX_IT;
-  else if (scale->stagnation_window > 0 && it - scale->best_iteration >= scale->stagnation_window) {
-    *reason = SNES_DIVERGED_DTOL;  // reported as "stagnated" (NewtonSolver::run_snes)
-    scale->stagnated = true;
-  }
-  return 0;
 }
 
 // After every linear solve: remember a KSP that did not converge. Not every
@@ -198,38 +154,6 @@ void set_newton(SNES snes, PetscInt max_it, SNESLineSearchType line_search_type)
   SNESLineSearch line_search;
   TALUS_PETSC(SNESGetLineSearch(snes, &line_search));
   TALUS_PETSC(SNESLineSearchSetType(line_search, line_search_type));
-}
-
-// A talus-specific count option -talus_<name> (an integer in [0, 1e6]),
-// read once, before the run writes anything. Parsed here: PETSc's own parser
-// would fail as an internal error instead of a clear input error.
-PetscInt count_option(const char* name, PetscInt fallback) {
-  char text[64] = "";
-  PetscBool given = PETSC_FALSE;
-  TALUS_PETSC(PetscOptionsGetString(nullptr, "talus_", (std::string("-") + name).c_str(), text, sizeof text, &given));
-  if (!given) return fallback;
-  char* end = nullptr;
-  errno = 0;
-  const long value = std::strtol(text, &end, 10);
-  if (end == text || *end != '\0' || errno == ERANGE || value < 0 || value > 1000000)
-    throw InputError("PETSc option -talus_" + std::string(name) + ": expected an integer in [0, 1000000], got '" +
-                     std::string(text) + "'");
-  return static_cast<PetscInt>(value);
-}
-
-// A talus-specific choice option -talus_<name> (one of `choices`, the first
-// the default), read once, before the run writes anything.
-std::string choice_option(const char* name, const std::vector<std::string>& choices) {
-  char text[64] = "";
-  PetscBool given = PETSC_FALSE;
-  TALUS_PETSC(PetscOptionsGetString(nullptr, "talus_", (std::string("-") + name).c_str(), text, sizeof text, &given));
-  if (!given) return choices.front();
-  for (const std::string& c : choices)
-    if (c == text) return c;
-  std::string list;
-  for (const std::string& c : choices) list += (list.empty() ? "" : ", ") + c;
-  throw InputError("PETSc option -talus_" + std::string(name) + ": expected one of " + list + ", got '" +
-                   std::string(text) + "'");
 }
 
 }  // namespace

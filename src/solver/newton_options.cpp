@@ -1,6 +1,8 @@
 // The solver options checked before a run writes anything
 // (NewtonSolver::options_read_by_no_configuration, docs/command_line.md#petsc-options):
 // a throwaway solver configured in a copy of the options database.
+#include <cerrno>
+#include <cstdlib>
 #include <cstring>
 #include <exception>
 #include <string>
@@ -8,6 +10,7 @@
 #include <vector>
 
 #include "talus/solver/newton.hpp"
+#include "newton_option_readers.hpp"
 
 namespace talus {
 
@@ -112,5 +115,37 @@ std::vector<std::string> NewtonSolver<dim>::options_read_by_no_configuration(MPI
 
 template std::vector<std::string> NewtonSolver<2>::options_read_by_no_configuration(MPI_Comm, PetscInt);
 template std::vector<std::string> NewtonSolver<3>::options_read_by_no_configuration(MPI_Comm, PetscInt);
+
+// A talus-specific count option -talus_<name> (an integer in [0, 1e6]),
+// read once, before the run writes anything. Parsed here: PETSc's own parser
+// would fail as an internal error instead of a clear input error.
+PetscInt count_option(const char* name, PetscInt fallback) {
+  char text[64] = "";
+  PetscBool given = PETSC_FALSE;
+  TALUS_PETSC(PetscOptionsGetString(nullptr, "talus_", (std::string("-") + name).c_str(), text, sizeof text, &given));
+  if (!given) return fallback;
+  char* end = nullptr;
+  errno = 0;
+  const long value = std::strtol(text, &end, 10);
+  if (end == text || *end != '\0' || errno == ERANGE || value < 0 || value > 1000000)
+    throw InputError("PETSc option -talus_" + std::string(name) + ": expected an integer in [0, 1000000], got '" +
+                     std::string(text) + "'");
+  return static_cast<PetscInt>(value);
+}
+
+// A talus-specific choice option -talus_<name> (one of `choices`, the first
+// the default), read once, before the run writes anything.
+std::string choice_option(const char* name, const std::vector<std::string>& choices) {
+  char text[64] = "";
+  PetscBool given = PETSC_FALSE;
+  TALUS_PETSC(PetscOptionsGetString(nullptr, "talus_", (std::string("-") + name).c_str(), text, sizeof text, &given));
+  if (!given) return choices.front();
+  for (const std::string& c : choices)
+    if (c == text) return c;
+  std::string list;
+  for (const std::string& c : choices) list += (list.empty() ? "" : ", ") + c;
+  throw InputError("PETSc option -talus_" + std::string(name) + ": expected one of " + list + ", got '" +
+                   std::string(text) + "'");
+}
 
 }  // namespace talus

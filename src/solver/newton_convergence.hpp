@@ -1,0 +1,58 @@
+#pragma once
+// The Newton solver's convergence test in physical units (NewtonSolver's
+// SNES convergence test, docs/solver.md#convergence-the-momentum-balance-in-physical-units).
+#include <petscsnes.h>
+
+#include <cmath>
+
+#include "talus/solver/newton.hpp"
+
+namespace talus {
+
+// The physical test (newton.hpp): U = ||F||_1 / S <= tolerance. F is in
+// impulse units on every row (momentum rows, m_i v_i = 0 on constrained
+// components, the natural map on contact rows), so ||F||_1 is the total
+// unbalanced impulse of the step. Divergence: NaN, the iteration limit, or
+// stagnation: no new smallest U for stagnation_window iterations. Full
+// semismooth Newton steps that have stopped reducing U are cycling between
+// branches of the return map or the cone (docs/solver.md#stagnation); they
+// did not recover in our runs, so the step is cut back at once instead of
+// after the iteration limit.
+template <int dim>
+PetscErrorCode physical_convergence(SNES snes, PetscInt it, PetscReal, PetscReal, PetscReal fnorm,
+                                    SNESConvergedReason* reason, void* ctx) {
+  auto* scale = static_cast<typename NewtonSolver<dim>::Scale*>(ctx);
+  *reason = SNES_CONVERGED_ITERATING;
+  if (std::isnan(fnorm) || std::isinf(fnorm)) {
+    *reason = SNES_DIVERGED_FNORM_NAN;
+    return 0;
+  }
+  Vec F;
+  PetscErrorCode ierr = SNESGetFunction(snes, &F, nullptr, nullptr);
+  if (ierr) return ierr;
+  PetscReal total = 0.0;
+  ierr = VecNorm(F, NORM_1, &total);
+  if (ierr) return ierr;
+  scale->unbalance = total / scale->impulse;
+  PetscInt max_it = 0;
+  ierr = SNESGetTolerances(snes, nullptr, nullptr, nullptr, &max_it, nullptr);
+  if (ierr) return ierr;
+  scale->history.push_back(scale->unbalance);
+  if (it == 0 || scale->unbalance < scale->best) {
+    scale->best = scale->unbalance;
+    scale->best_iteration = it;
+  }
+  if (scale->linear_failures && *scale->linear_failures > 0)
+    *reason = SNES_DIVERGED_LINEAR_SOLVE;  // the iterate followed an unsolved system
+  else if (scale->unbalance <= scale->tolerance)
+    *reason = SNES_CONVERGED_FNORM_ABS;
+  else if (it >= max_it)
+    *reason = SNES_DIVERGED_MAX_IT;
+  else if (scale->stagnation_window > 0 && it - scale->best_iteration >= scale->stagnation_window) {
+    *reason = SNES_DIVERGED_DTOL;  // reported as "stagnated" (NewtonSolver::run_snes)
+    scale->stagnated = true;
+  }
+  return 0;
+}
+
+}  // namespace talus
