@@ -178,24 +178,43 @@ StepReport Simulation<dim>::advance(double h) {
   report.transfer_seconds = seconds_since(t0);
 
   const auto t1 = std::chrono::steady_clock::now();
-  // 3. Unknowns: velocities of the active grid points.
+  // Rigid bodies (docs/contact.md#rigid-bodies): mass, inertia and motion
+  // q^n from their particles.
+  std::vector<char> rigid_flags(config_.bodies.size(), 0);
+  for (std::size_t b = 0; b < config_.bodies.size(); ++b) rigid_flags[b] = config_.bodies[b].rigid;
+  std::vector<RigidBody<dim>> rigid = rigid_bodies(*particles_, rigid_flags, contact.body_field, comm_);
+  std::vector<int> rigid_of_field;
+  if (!rigid.empty()) {
+    rigid_of_field.assign(contact.field_count, -1);
+    for (std::size_t k = 0; k < rigid.size(); ++k) rigid_of_field[rigid[k].field] = static_cast<int>(k);
+  }
+  // 3. Unknowns: velocities of the active grid points (and the rigid
+  // bodies' motions, two blocks each).
   ActiveSet<dim> active;
-  active.build(*grid_, fields, mass_threshold_, config_.faces);
+  active.build(*grid_, fields, mass_threshold_, config_.faces, 2 * static_cast<int>(rigid.size()));
+  for (std::size_t k = 0; k < rigid.size(); ++k) rigid[k].block = active.extra_first() + 2 * static_cast<PetscInt>(k);
   report.active_points = active.global_count();
   last_system_size_ = active.global_count() * dim;
   // 4. Contact candidates: active points whose predicted gap to an obstacle
   // is closed, and points where two bodies are predicted to touch.
   const auto tc = std::chrono::steady_clock::now();
   std::vector<ContactPoint<dim>> contacts =
-      find_contact_candidates(*grid_, *particles_, stencils, fields, active, obstacles_, time_, h, contact.gap_prediction);
+      find_contact_candidates(*grid_, *particles_, stencils, fields, active, obstacles_, time_, h, contact.gap_prediction,
+                              rigid_of_field);
   std::vector<BodyContactPoint<dim>> body_contacts =
-      find_body_contacts(*grid_, *particles_, stencils, fields, active, contact, contacts, h);
+      find_body_contacts(*grid_, *particles_, stencils, fields, active, contact, contacts, h, rigid_of_field);
   report.contact_seconds = seconds_since(tc);
   if (equilibrium_stage_ && config_.equilibrium.stick) {
     // `contact: stick`: the bodies are held where they touch an obstacle or a
     // frictional face, as on the fixed base of a gravity-loading step.
-    for (const ContactPoint<dim>& cp : contacts) active.constrain(cp.point);
-    contacts.clear();
+    // A rigid body's contact points stay contacts (its equations hold it).
+    std::vector<ContactPoint<dim>> kept;
+    for (const ContactPoint<dim>& cp : contacts)
+      if (cp.rigid >= 0)
+        kept.push_back(cp);
+      else
+        active.constrain(cp.point);
+    contacts = std::move(kept);
   }
   {
     PetscInt local = static_cast<PetscInt>(contacts.size());
@@ -212,7 +231,7 @@ StepReport Simulation<dim>::advance(double h) {
     MPI_Allreduce(&local, &report.body_contact_points, 1, MPIU_INT, MPI_SUM, comm_);
   }
   MomentumSystem<dim> system(*grid_, *particles_, stencils, fields, active, materials_, gravity_, h, theta,
-                             std::move(contacts), std::move(body_contacts));
+                             std::move(contacts), std::move(body_contacts), std::move(rigid));
   // The ghost penalty (docs/solver.md#ghost-penalty): the grid functions
   // that particles barely touch at a body's edge get a stiffness tied to
   // their neighbours. Not in the equilibrium stage (its accumulated form
@@ -230,6 +249,9 @@ StepReport Simulation<dim>::advance(double h) {
     std::vector<char> held(fields.mass.size(), 0);
     for (const auto& cp : system.contacts()) held[cp.point] = 1;
     for (const auto& cp : system.body_contacts()) held[cp.node_a] = held[cp.node_b] = 1;
+    // A rigid body's points are held by its rigid motion.
+    for (std::size_t node = 0; node < held.size() && !rigid_of_field.empty(); ++node)
+      if (rigid_of_field[fields.field_of(static_cast<int>(node))] >= 0) held[node] = 1;
     ghost = std::make_unique<GhostPenalty<dim>>(*grid_, *particles_, stencils, fields, active, materials_,
                                                 config_.solver.ghost_penalty, inside_obstacle, &held);
     system.set_ghost_penalty(ghost.get());
@@ -307,8 +329,16 @@ double Simulation<dim>::complete_step(const MomentumSystem<dim>& system, const s
                                       const GridFields<dim>& fields, double h, double theta) {
   // 7. G2P: velocities, affine velocities, positions, deformation gradients.
   const auto t2 = std::chrono::steady_clock::now();
+  // A rigid body's particles move with the body's motion, rotated exactly.
+  std::vector<char> rigid_particle;
+  if (!system.rigid_bodies().empty()) {
+    FieldView<PetscInt> body(particles_->swarm(), field::body_id);
+    rigid_particle.resize(particles_->local_count());
+    for (std::size_t p = 0; p < rigid_particle.size(); ++p) rigid_particle[p] = config_.bodies[body[p]].rigid;
+  }
   grid_to_particles(*particles_, stencils, system.end_velocity(), system.start_velocity(), fields.velocity, h,
-                    theta, config_.transfer);
+                    theta, config_.transfer, rigid_particle.empty() ? nullptr : &rigid_particle);
+  move_rigid_particles(*particles_, system.rigid_bodies(), system.rigid_motion(), h);
   commit_material_state(system);
   check_finite();
   keep_particles_inside();

@@ -6,6 +6,8 @@
 
 #include <petscdmda.h>
 
+#include "talus/core/errors.hpp"
+
 namespace talus {
 
 namespace {
@@ -63,19 +65,74 @@ std::vector<double> node_maximum(const Grid<dim>& grid, const std::vector<Stenci
 
 // Per ghosted node: min over the particles of its field in its support (all
 // ranks) of g(x_p) - l_p / 2; +huge where no particle reaches.
+//
+// A rigid body's point takes only the particles across its own cell strip
+// (tangential offset from the point at most half a cell): its gap is then
+// the body's surface height under the point, so a rolling body touches at the
+// points under its lowest surface, not at every point within the B-splines'
+// reach (those would block the rotation, docs/contact.md#rigid-bodies).
 template <int dim>
 std::vector<double> material_gaps(const Grid<dim>& grid, const Particles<dim>& particles,
                                   const std::vector<Stencil<dim>>& stencils, const GridFields<dim>& fields,
-                                  const Obstacle<dim>& obstacle, double time) {
+                                  const Obstacle<dim>& obstacle, double time, const std::vector<int>& rigid_of_field) {
   FieldView<PetscReal> x(particles.swarm(), field::position), v0(particles.swarm(), field::initial_volume);
   std::vector<double> particle_gap(stencils.size());
-  for (std::size_t p = 0; p < stencils.size(); ++p)
-    particle_gap[p] =
-        obstacle.gap(Eigen::Map<const Vector<dim>>(x.data() + dim * p), time).gap - 0.5 * std::pow(v0[p], 1.0 / dim);
-  std::vector<double> gaps =
-      node_maximum(grid, stencils, fields, [&](std::size_t p, int) { return -particle_gap[p]; });
+  std::vector<Vector<dim>> particle_normal(rigid_of_field.empty() ? 0 : stencils.size());
+  const int points = grid.ghosted_count();
+  for (std::size_t p = 0; p < stencils.size(); ++p) {
+    const ObstacleGap<dim> g = obstacle.gap(Eigen::Map<const Vector<dim>>(x.data() + dim * p), time);
+    particle_gap[p] = g.gap - 0.5 * std::pow(v0[p], 1.0 / dim);
+    if (!particle_normal.empty()) particle_normal[p] = g.normal;
+  }
+  const double strip = 0.5 * grid.cell_size() * (1.0 + 1e-9);
+  std::vector<double> gaps = node_maximum(grid, stencils, fields, [&](std::size_t p, int k) {
+    const Stencil<dim>& st = stencils[p];
+    if (!particle_normal.empty() && rigid_of_field[st.local[k] / points] >= 0) {
+      const Vector<dim> d = Eigen::Map<const Vector<dim>>(x.data() + dim * p) - grid.point_position(st.node[k]);
+      const Vector<dim>& n = particle_normal[p];
+      if ((d - d.dot(n) * n).template lpNorm<Eigen::Infinity>() > strip) return -none;
+    }
+    return -particle_gap[p];
+  });
   for (double& g : gaps) g = -g;
   return gaps;
+}
+
+// A rigid body's surface point at each of its nodes: the lowest point
+// x_p - (l_p / 2) n of the particle of the node's strip that sets its gap
+// (material_gaps), dim per node (ties: the largest coordinates). The
+// contact's velocity is the body's there (a rolling body turns about it).
+template <int dim>
+std::vector<double> rigid_surface_points(const Grid<dim>& grid, const Particles<dim>& particles,
+                                         const std::vector<Stencil<dim>>& stencils, const GridFields<dim>& fields,
+                                         const Obstacle<dim>& obstacle, double time,
+                                         const std::vector<int>& rigid_of_field, const std::vector<double>& gaps) {
+  FieldView<PetscReal> x(particles.swarm(), field::position), v0(particles.swarm(), field::initial_volume);
+  const int points = grid.ghosted_count();
+  const double strip = 0.5 * grid.cell_size() * (1.0 + 1e-9), tie = 1e-9 * grid.cell_size();
+  std::vector<double> particle_gap(stencils.size());
+  std::vector<Vector<dim>> surface(stencils.size()), normal(stencils.size());
+  for (std::size_t p = 0; p < stencils.size(); ++p) {
+    const Vector<dim> xp = Eigen::Map<const Vector<dim>>(x.data() + dim * p);
+    const ObstacleGap<dim> g = obstacle.gap(xp, time);
+    const double extent = 0.5 * std::pow(v0[p], 1.0 / dim);
+    particle_gap[p] = g.gap - extent;
+    normal[p] = g.normal;
+    surface[p] = xp - extent * g.normal;
+  }
+  std::vector<double> out(gaps.size() * dim, 0.0);
+  for (int a = 0; a < dim; ++a) {
+    const std::vector<double> component = node_maximum(grid, stencils, fields, [&](std::size_t p, int k) {
+      const Stencil<dim>& st = stencils[p];
+      const int node = st.local[k];
+      if (rigid_of_field[node / points] < 0 || particle_gap[p] > gaps[node] + tie) return -none;
+      const Vector<dim> d = Eigen::Map<const Vector<dim>>(x.data() + dim * p) - grid.point_position(st.node[k]);
+      if ((d - d.dot(normal[p]) * normal[p]).template lpNorm<Eigen::Infinity>() > strip) return -none;
+      return surface[p][a];
+    });
+    for (std::size_t node = 0; node < gaps.size(); ++node) out[dim * node + a] = component[node];
+  }
+  return out;
 }
 
 }  // namespace
@@ -85,13 +142,20 @@ std::vector<ContactPoint<dim>> find_contact_candidates(const Grid<dim>& grid, co
                                                        const std::vector<Stencil<dim>>& stencils,
                                                        const GridFields<dim>& fields, const ActiveSet<dim>& active,
                                                        const std::vector<Obstacle<dim>>& obstacles, double time,
-                                                       double h, double gap_prediction) {
+                                                       double h, double gap_prediction,
+                                                       const std::vector<int>& rigid_of_field) {
   std::vector<ContactPoint<dim>> contacts;
-  if (obstacles.empty()) return contacts;
+  if (obstacles.empty() && rigid_of_field.empty()) return contacts;
   std::vector<std::vector<double>> gaps;
-  for (const Obstacle<dim>& o : obstacles) gaps.push_back(material_gaps(grid, particles, stencils, fields, o, time));
+  std::vector<std::vector<double>> surfaces;
+  for (const Obstacle<dim>& o : obstacles) {
+    gaps.push_back(material_gaps(grid, particles, stencils, fields, o, time, rigid_of_field));
+    if (!rigid_of_field.empty())
+      surfaces.push_back(rigid_surface_points(grid, particles, stencils, fields, o, time, rigid_of_field, gaps.back()));
+  }
   // A point on a grid-aligned obstacle face has gap 0 up to round-off.
   const double point_tolerance = 1e-9 * grid.cell_size();
+  bool at_face = false;  // a rigid body's active point on a constrained face
   const auto& owned = active.owned_points();
   for (std::size_t k = 0; k < owned.size(); ++k) {
     const int i = owned[k];
@@ -101,7 +165,8 @@ std::vector<ContactPoint<dim>> find_contact_candidates(const Grid<dim>& grid, co
       free[c] = !active.constrained(i, c);
       constrained += !free[c];
     }
-    if (constrained == dim) continue;
+    const int rigid = rigid_of_field.empty() ? -1 : rigid_of_field[fields.field_of(i)];
+    if (constrained == dim && rigid < 0) continue;
     const Vector<dim> x = grid.point_position(grid.global_index(fields.point_of(i)));
     const Vector<dim> v = Eigen::Map<const Vector<dim>>(fields.velocity.data() + static_cast<std::size_t>(dim) * i);
     double best = std::numeric_limits<double>::infinity();
@@ -118,7 +183,7 @@ std::vector<ContactPoint<dim>> find_contact_candidates(const Grid<dim>& grid, co
       g.gap = gaps[o][i];
       bool compatible = true;
       for (int c = 0; c < dim; ++c) compatible &= free[c] || std::abs(g.normal[c]) < 1e-12;
-      if (!compatible) continue;
+      if (!compatible && rigid < 0) continue;
       const double un = (v - obstacles[o].velocity()).dot(g.normal);
       // A closed gap is a candidate whatever its velocity (Moreau's sweeping
       // process); an open one when it is predicted to close within the step.
@@ -137,9 +202,21 @@ std::vector<ContactPoint<dim>> find_contact_candidates(const Grid<dim>& grid, co
         cp.start_normal_velocity = un;
         cp.rho = fields.mass[i];
         cp.free = free;
+        cp.rigid = rigid;
+        if (rigid >= 0) cp.surface = Eigen::Map<const Vector<dim>>(surfaces[o].data() + static_cast<std::size_t>(dim) * i);
       }
     }
+    if (rigid >= 0 && constrained > 0) at_face = true;
     if (cp.point >= 0) contacts.push_back(cp);
+  }
+  if (!rigid_of_field.empty()) {
+    // A constrained component would hold a rigid body's grid point without
+    // the body's equations knowing: the body would pass through the face.
+    int any = 0, mine = at_face ? 1 : 0;
+    MPI_Allreduce(&mine, &any, 1, MPI_INT, MPI_MAX, grid.comm());
+    if (any)
+      throw SimulationError("a rigid body reached a fixed or slip face of the grid: rigid bodies are held by "
+                            "obstacles only (docs/contact.md#rigid-bodies); keep the grid's faces away from them");
   }
   return contacts;
 }
@@ -176,7 +253,7 @@ std::vector<BodyContactPoint<dim>> find_body_contacts(const Grid<dim>& grid, con
                                                       const GridFields<dim>& fields, const ActiveSet<dim>& active,
                                                       const ContactConfig& config,
                                                       const std::vector<ContactPoint<dim>>& obstacle_contacts,
-                                                      double h) {
+                                                      double h, const std::vector<int>& rigid_of_field) {
   std::vector<BodyContactPoint<dim>> contacts;
   const int F = fields.field_count;
   if (F < 2) return contacts;
@@ -186,13 +263,17 @@ std::vector<BodyContactPoint<dim>> find_body_contacts(const Grid<dim>& grid, con
   // field. Every other active field x there is paired with the hub (x's row
   // takes the natural map, the hub's the point's total balance), so any
   // number of fields can meet at a point.
+  // A rigid body's field is the hub wherever it is active.
+  const auto rigid = [&](int f) { return !rigid_of_field.empty() && rigid_of_field[f] >= 0; };
   std::vector<int> hub(points, -1), count(points, 0);
   for (int i = 0; i < points; ++i)
     for (int f = 0; f < F; ++f) {
       const int node = f * points + i;
       if (active.compact_index(node) < 0) continue;
       ++count[i];
-      if (hub[i] < 0 || fields.mass[node] > fields.mass[hub[i] * points + i]) hub[i] = f;
+      if (hub[i] < 0 || (rigid(f) && !rigid(hub[i])) ||
+          (rigid(f) == rigid(hub[i]) && fields.mass[node] > fields.mass[hub[i] * points + i]))
+        hub[i] = f;
     }
   const std::vector<double> gradient = volume_gradients(grid, particles, stencils, fields);
   // Each field's volume, all ranks: which body of a pair is the larger.
@@ -268,6 +349,7 @@ std::vector<BodyContactPoint<dim>> find_body_contacts(const Grid<dim>& grid, con
     if (normal[node].isZero(0.0)) continue;  // the hub, or not a contact point
     const int a = node, b = hub[i] * points + i;
     if (obstacle_node[a] || obstacle_node[b]) continue;
+    if (rigid(a / points)) continue;  // two rigid bodies
     bool constrained = false;
     for (int c = 0; c < dim; ++c) constrained |= active.constrained(a, c);
     if (constrained) continue;
@@ -294,19 +376,21 @@ std::vector<BodyContactPoint<dim>> find_body_contacts(const Grid<dim>& grid, con
 template std::vector<BodyContactPoint<2>> find_body_contacts(const Grid<2>&, const Particles<2>&,
                                                              const std::vector<Stencil<2>>&, const GridFields<2>&,
                                                              const ActiveSet<2>&, const ContactConfig&,
-                                                             const std::vector<ContactPoint<2>>&, double);
+                                                             const std::vector<ContactPoint<2>>&, double,
+                                                             const std::vector<int>&);
 template std::vector<BodyContactPoint<3>> find_body_contacts(const Grid<3>&, const Particles<3>&,
                                                              const std::vector<Stencil<3>>&, const GridFields<3>&,
                                                              const ActiveSet<3>&, const ContactConfig&,
-                                                             const std::vector<ContactPoint<3>>&, double);
+                                                             const std::vector<ContactPoint<3>>&, double,
+                                                             const std::vector<int>&);
 
 template std::vector<ContactPoint<2>> find_contact_candidates(const Grid<2>&, const Particles<2>&,
                                                               const std::vector<Stencil<2>>&, const GridFields<2>&,
                                                               const ActiveSet<2>&, const std::vector<Obstacle<2>>&,
-                                                              double, double, double);
+                                                              double, double, double, const std::vector<int>&);
 template std::vector<ContactPoint<3>> find_contact_candidates(const Grid<3>&, const Particles<3>&,
                                                               const std::vector<Stencil<3>>&, const GridFields<3>&,
                                                               const ActiveSet<3>&, const std::vector<Obstacle<3>>&,
-                                                              double, double, double);
+                                                              double, double, double, const std::vector<int>&);
 
 }  // namespace talus

@@ -337,6 +337,11 @@ BodyConfig parse_body(YamlSection& b, const CaseConfig& c) {
     bc.k0 = b.real("k0");
     if (!(bc.k0 > 0.0 && bc.k0 <= 5.0)) b.fail_value("k0", "must be in (0, 5]");
   }
+  bc.rigid = b.boolean("rigid", false);
+  if (bc.rigid && bc.geostatic)
+    b.fail_value("initial_stress", "geostatic", "a rigid body carries no stress (rigid: true)");
+  if (bc.rigid && c.time.integrator == Integrator::explicit_euler)
+    b.fail_value("rigid", "true", "rigid bodies need the implicit integrator (time.integrator: implicit)");
   if (bc.geostatic)
     for (int a = 0; a + 1 < c.dim; ++a)
       if (c.gravity[a] != 0.0 || !(c.gravity[c.dim - 1] < 0.0))

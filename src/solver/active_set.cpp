@@ -18,7 +18,7 @@ void ActiveSet<dim>::destroy() {
 
 template <int dim>
 void ActiveSet<dim>::build(const Grid<dim>& grid, const GridFields<dim>& fields, double threshold,
-                           const std::array<FaceCondition, 6>& faces) {
+                           const std::array<FaceCondition, 6>& faces, int extra_blocks) {
   destroy();
   comm_ = grid.comm();
   // Nodes: one per ghosted point and velocity field (GridFields), field-major
@@ -48,14 +48,20 @@ void ActiveSet<dim>::build(const Grid<dim>& grid, const GridFields<dim>& fields,
     if (fields.mass[i] > threshold && grid.is_owned(ijk)) owned_points_.push_back(i);
   }
   owned_count_ = static_cast<PetscInt>(owned_points_.size());
-  // PETSc's parallel layout numbers the owned active points of rank r after those of ranks < r.
-  TALUS_PETSC(VecCreateMPI(comm_, owned_count_ * dim, PETSC_DETERMINE, &layout_));
+  int rank = 0, size = 1;
+  MPI_Comm_rank(comm_, &rank);
+  MPI_Comm_size(comm_, &size);
+  extra_local_ = rank == size - 1 ? extra_blocks : 0;
+  // PETSc's parallel layout numbers the owned active points of rank r after
+  // those of ranks < r; the extra blocks end the last rank's range.
+  TALUS_PETSC(VecCreateMPI(comm_, (owned_count_ + extra_local_) * dim, PETSC_DETERMINE, &layout_));
   TALUS_PETSC(VecSetBlockSize(layout_, dim));
   PetscInt first = 0;
   TALUS_PETSC(VecGetOwnershipRange(layout_, &first, nullptr));
   TALUS_PETSC(VecGetSize(layout_, &global_count_));
   first /= dim;
   global_count_ /= dim;
+  extra_first_ = global_count_ - extra_blocks;
 
   // Compact indices of ghost points come from their owners through the DMDA,
   // one field at a time.

@@ -17,6 +17,21 @@ void MomentumSystem<dim>::contact_rows(Vec v, Vec F) {
   TALUS_PETSC(VecGetArrayRead(v, &x));
   for (std::size_t c = 0; c < contacts_.size(); ++c) {
     const ContactPoint<dim>& cp = contacts_[c];
+    if (cp.rigid >= 0) {
+      // A rigid body's contact point: the unknown is the impulse r itself;
+      // the velocity is the body's at its surface point, plus the compliance
+      // eps r / rho that makes the impulses of a body resting on several
+      // points unique (momentum_system.hpp).
+      const RigidBody<dim>& rb = rigid_[cp.rigid];
+      const Vector<dim> r = Eigen::Map<const Vector<dim>>(x + cp.row);
+      const typename RigidBody<dim>::Map T = rb.velocity_map(cp.surface);
+      const Vector<dim> u = T * motion_[cp.rigid] - cp.obstacle_velocity + (rigid_compliance / cp.rho) * r;
+      contact_impulse_[c] = r;
+      contact_map_[c] = natural_map<dim>(r, u, cp.normal, cp.friction, cp.restitution, cp.start_normal_velocity, cp.rho);
+      Eigen::Map<Vector<dim>>(f + cp.row) = contact_map_[c].value;
+      rigid_impulse_[cp.rigid] -= T.transpose() * r;
+      continue;
+    }
     // The impulse the obstacle must supply: the momentum imbalance R_i(v).
     // A slip-face component is held by the face (its row stays m v = 0), so
     // the obstacle's impulse and the velocity have none there.
@@ -37,7 +52,13 @@ void MomentumSystem<dim>::contact_rows(Vec v, Vec F) {
     const Vector<dim> u = Eigen::Map<const Vector<dim>>(x + cp.row_a) - Eigen::Map<const Vector<dim>>(x + cp.row_b);
     body_impulse_[c] = r;
     body_map_[c] = natural_map<dim>(r, u, -cp.normal, cp.friction, 0.0, cp.start_normal_velocity, cp.rho);
-    Eigen::Map<Vector<dim>>(f + cp.row_b) += r;  // R_a + R_b: the point's total balance
+    if (rigid_node(cp.node_b)) {
+      // A rigid hub: -r acts on the body (its row is its rigid constraint).
+      const int k = rigid_of_field_[cp.node_b / points_];
+      rigid_impulse_[k] += rigid_[k].velocity_map(grid_.point_position(grid_.global_index(cp.node_b % points_))).transpose() * r;
+    } else {
+      Eigen::Map<Vector<dim>>(f + cp.row_b) += r;  // R_a + R_b: the point's total balance
+    }
     Eigen::Map<Vector<dim>>(f + cp.row_a) = body_map_[c].value;
   }
   TALUS_PETSC(VecRestoreArrayRead(v, &x));

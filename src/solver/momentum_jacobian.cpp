@@ -191,7 +191,15 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
     double* row = rows.data() + sa * dim * row_length;
     const PetscInt* cols = jacobian_columns_.data() + sa * neighbours;
     for (int z = jacobian_zeroed_start_[sa]; z < jacobian_zeroed_start_[sa + 1]; ++z) row[jacobian_zeroed_[z]] = 0.0;
-    if (!partner.empty() && partner[point] >= 0) {
+    if (!partner.empty() && partner[point] >= 0 && rigid_node(partner[point])) {
+      // A rigid hub: the body's rows take T(x_i)^T times a's momentum row.
+      const RigidBody<dim>& body = rigid_body_of(partner[point]);
+      const PetscInt q[2] = {body.block, body.block + 1};
+      const Eigen::Map<const Eigen::Matrix<double, dim, Eigen::Dynamic, Eigen::RowMajor>> momentum(row, dim, row_length);
+      const Eigen::Matrix<double, RigidBody<dim>::unknowns, Eigen::Dynamic, Eigen::RowMajor> body_rows =
+          body.velocity_map(grid_.point_position(ijk)).transpose() * momentum;
+      TALUS_PETSC(MatSetValuesBlocked(J, 2, q, neighbours, cols, body_rows.data(), ADD_VALUES));
+    } else if (!partner.empty() && partner[point] >= 0) {
       // Row b of a body contact takes a's momentum row as it is (R_a + R_b).
       const PetscInt rb = active_.compact_index(partner[point]);
       TALUS_PETSC(MatSetValuesBlocked(J, 1, &rb, neighbours, cols, row, ADD_VALUES));
@@ -234,7 +242,9 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
   for (std::size_t k = 0; k < owned.size(); ++k) diagonal[k] = fields_.mass[owned[k]] * Matrix<dim>::Identity();
   for (std::size_t c = 0; c < contact_left_.size() && !left.empty(); ++c) {
     const std::size_t k = static_cast<std::size_t>(contacts_[c].row / dim);
-    diagonal[k] = fields_.mass[owned[k]] * contact_left_[c] + contact_right_[c];
+    diagonal[k] = contacts_[c].rigid >= 0
+                      ? Matrix<dim>(contact_left_[c] + (rigid_compliance / contacts_[c].rho) * contact_right_[c])
+                      : Matrix<dim>(fields_.mass[owned[k]] * contact_left_[c] + contact_right_[c]);
   }
   for (std::size_t c = 0; c < body_left_.size() && !left.empty(); ++c) {
     // Row a: m_a P + Q on v_a, -Q on v_b; row b: m_a on v_a (R_a's mass
@@ -246,13 +256,22 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
     const Eigen::Matrix<double, dim, dim, Eigen::RowMajor> ab = -body_right_[c];
     const Eigen::Matrix<double, dim, dim, Eigen::RowMajor> ba = fields_.mass[cp.node_a] * Matrix<dim>::Identity();
     TALUS_PETSC(MatSetValuesBlocked(J, 1, &ra, 1, &rb, ab.data(), ADD_VALUES));
-    TALUS_PETSC(MatSetValuesBlocked(J, 1, &rb, 1, &ra, ba.data(), ADD_VALUES));
+    if (rigid_node(cp.node_b)) {
+      const RigidBody<dim>& body = rigid_body_of(cp.node_b);
+      const PetscInt q[2] = {body.block, body.block + 1};
+      const Eigen::Matrix<double, RigidBody<dim>::unknowns, dim, Eigen::RowMajor> qa =
+          body.velocity_map(grid_.point_position(grid_.global_index(cp.node_b % points_))).transpose() * ba;
+      TALUS_PETSC(MatSetValuesBlocked(J, 2, q, 1, &ra, qa.data(), ADD_VALUES));
+    } else {
+      TALUS_PETSC(MatSetValuesBlocked(J, 1, &rb, 1, &ra, ba.data(), ADD_VALUES));
+    }
   }
   for (std::size_t k = 0; k < owned.size(); ++k) {
     const PetscInt r = first + static_cast<PetscInt>(k);
     const Eigen::Matrix<double, dim, dim, Eigen::RowMajor> block = diagonal[k];
     TALUS_PETSC(MatSetValuesBlocked(J, 1, &r, 1, &r, block.data(), ADD_VALUES));
   }
+  if (!rigid_.empty()) rigid_jacobian(J, left);
   TALUS_PETSC(MatAssemblyBegin(J, MAT_FINAL_ASSEMBLY));
   TALUS_PETSC(MatAssemblyEnd(J, MAT_FINAL_ASSEMBLY));
   assembly_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t_assembly).count();
@@ -268,7 +287,7 @@ Mat MomentumSystem<dim>::create_matrix(MatType type) const {
   // unused slots are squeezed out at assembly). The ghost width equals the
   // reach, so every neighbour's compact index is known on this rank.
   const int reach = grid_.reach();
-  const PetscInt nloc = active_.owned_count(), nglob = active_.global_count();
+  const PetscInt npoints = active_.owned_count(), nloc = active_.local_blocks(), nglob = active_.global_count();
   PetscInt first = 0;
   {
     Vec v = active_.create_vector();
@@ -280,7 +299,7 @@ Mat MomentumSystem<dim>::create_matrix(MatType type) const {
   const auto& owned = active_.owned_points();
   const auto& gs = grid_.ghost_start();
   const auto& gm = grid_.ghost_size();
-  for (PetscInt k = 0; k < nloc; ++k) {
+  for (PetscInt k = 0; k < npoints; ++k) {
     const int field = owned[k] / points_;
     const bool shared = fields_.field_count > 1 && shared_point(owned[k]);
     const auto ijk = grid_.global_index(owned[k] % points_);
@@ -301,7 +320,15 @@ Mat MomentumSystem<dim>::create_matrix(MatType type) const {
       while (a < dim && ++j[a] > hi[a]) j[a] = lo[a], ++a;
       if (a == dim) break;
     }
+    // A rigid body's point couples with the body's motion.
+    if (rigid_node(owned[k])) {
+      const PetscInt q = rigid_body_of(owned[k]).block;
+      (q >= first && q < first + nloc ? d_nnz[k] : o_nnz[k]) += 2;
+    }
   }
+  // A body's rows couple with any unknown (the points where it touches
+  // another body or an obstacle): full rows, squeezed at assembly.
+  for (PetscInt k = npoints; k < nloc; ++k) d_nnz[k] = nloc, o_nnz[k] = nglob - nloc;
   Mat J;
   TALUS_PETSC(MatCreate(grid_.comm(), &J));
   TALUS_PETSC(MatSetSizes(J, nloc * dim, nloc * dim, nglob * dim, nglob * dim));
@@ -320,7 +347,7 @@ Mat MomentumSystem<dim>::create_matrix(MatType type) const {
   Vec coordinates = active_.create_vector();
   PetscScalar* c;
   TALUS_PETSC(VecGetArray(coordinates, &c));
-  for (PetscInt k = 0; k < nloc; ++k) {
+  for (PetscInt k = 0; k < npoints; ++k) {
     const Vector<dim> x = grid_.point_position(grid_.global_index(owned[k] % points_));
     for (int a = 0; a < dim; ++a) c[dim * k + a] = x[a];
   }

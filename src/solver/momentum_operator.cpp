@@ -2,6 +2,8 @@
 // its product from the particle tangents, without the matrix.
 #include <chrono>
 
+#include <stdexcept>
+
 #include "talus/solver/momentum_system.hpp"
 
 namespace talus {
@@ -14,6 +16,8 @@ int MomentumSystem<dim>::stencil_nodes() const {
 
 template <int dim>
 void MomentumSystem<dim>::prepare_operator(Vec v) {
+  // Rigid bodies' rows are assembled only (NewtonSolver takes the matrix).
+  if (!rigid_.empty()) throw std::logic_error("the Jacobian operator does not hold rigid bodies' rows");
   if (any_contacts_) contact_factors(v);
   if (!evaluated_at(v)) evaluate_particles(v);
 }

@@ -30,7 +30,8 @@ MomentumSystem<dim>::MomentumSystem(const Grid<dim>& grid, const Particles<dim>&
                                     const ActiveSet<dim>& active, const std::vector<const Material*>& materials,
                                     const Vector<dim>& gravity, double h, double theta,
                                     std::vector<ContactPoint<dim>> contacts,
-                                    std::vector<BodyContactPoint<dim>> body_contacts)
+                                    std::vector<BodyContactPoint<dim>> body_contacts,
+                                    std::vector<RigidBody<dim>> rigid)
     : grid_(grid),
       stencils_(stencils),
       fields_(fields),
@@ -40,9 +41,22 @@ MomentumSystem<dim>::MomentumSystem(const Grid<dim>& grid, const Particles<dim>&
       h_(h),
       theta_(theta),
       contacts_(std::move(contacts)),
-      body_contacts_(std::move(body_contacts)) {
+      body_contacts_(std::move(body_contacts)),
+      rigid_(std::move(rigid)) {
   points_ = grid.ghosted_count();
   nodes_ = static_cast<int>(fields.mass.size());
+  rigid_of_field_.assign(fields.field_count, -1);
+  for (std::size_t k = 0; k < rigid_.size(); ++k) {
+    rigid_of_field_[rigid_[k].field] = static_cast<int>(k);
+    motion_.push_back(rigid_[k].start);
+  }
+  rigid_impulse_.assign(rigid_.size(), RigidBody<dim>::Motion::Zero());
+  {
+    Vec layout = active.create_vector();
+    TALUS_PETSC(VecGetOwnershipRange(layout, &rigid_first_, nullptr));
+    TALUS_PETSC(VecDestroy(&layout));
+    rigid_first_ /= dim;
+  }
   contact_impulse_.assign(contacts_.size(), Vector<dim>::Zero());
   contact_map_.resize(contacts_.size());
   body_impulse_.assign(body_contacts_.size(), Vector<dim>::Zero());
@@ -109,12 +123,33 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
   for (int i = 0; i < nodes_; ++i)
     for (int c = 0; c < dim; ++c)
       if (active_.constrained(i, c)) velocity_[dim * i + c] = 0.0;
+  if (!rigid_.empty()) {
+    // A rigid body's grid velocities are its rigid motion (its contact
+    // points' unknowns are impulses, not velocities).
+    gather_motion(v);
+    for (int i = 0; i < nodes_; ++i)
+      if (rigid_node(i) && active_.compact_index(i) >= 0) {
+        const RigidBody<dim>& rb = rigid_body_of(i);
+        Eigen::Map<Vector<dim>>(velocity_.data() + static_cast<std::size_t>(dim) * i) =
+            rb.velocity_map(grid_.point_position(grid_.global_index(i % points_))) *
+            motion_[rigid_of_field_[i / points_]];
+      }
+  }
   force_.assign(velocity_.size(), 0.0);
 
   const std::size_t np = stencils_.size();
   MaterialPointUpdate update;
   for (std::size_t p = 0; p < np; ++p) {
     const Stencil<dim>& st = stencils_[p];
+    if (rigid_particle(p)) {
+      // A rigid body's particles do not strain: no stress, no internal force.
+      stress_end_[p] = rotated_stress_[p] = stress_old_[p];
+      plastic_increment_[p].setZero();
+      closed_voids_[p] = 0.0;
+      tangent_[p].setZero();
+      stiff_[p] = 0;
+      continue;
+    }
     Matrix<dim> L = Matrix<dim>::Zero();
     for (int k = 0; k < st.count; ++k) {
       const std::size_t o = static_cast<std::size_t>(dim) * st.local[k];
@@ -231,7 +266,9 @@ void MomentumSystem<dim>::residual(Vec v, Vec F) {
   }
   TALUS_PETSC(VecRestoreArrayRead(v, &x));
   TALUS_PETSC(VecRestoreArray(F, &f));
+  for (auto& r : rigid_impulse_) r.setZero();
   if (any_contacts_) contact_rows(v, F);
+  if (!rigid_.empty()) rigid_rows(v, F);
 }
 
 template <int dim>
@@ -254,6 +291,32 @@ Vec MomentumSystem<dim>::initial_guess(bool last) const {
     for (int c = 0; c < dim; ++c)
       x[dim * k + c] =
           active_.constrained(i, c) ? 0.0 : velocity_old_[dim * i + c] + h_ * (known ? a[c] : gravity_[c]);
+  }
+  if (!rigid_.empty()) {
+    // Rigid bodies: q^n + h (g, 0), their nodes' rigid velocities, no
+    // impulse at their contact points.
+    std::vector<typename RigidBody<dim>::Motion> q(rigid_.size());
+    for (std::size_t b = 0; b < rigid_.size(); ++b) {
+      q[b] = rigid_[b].start;
+      q[b].template head<dim>() += h_ * gravity_;
+    }
+    std::vector<char> contact(nodes_, 0);
+    for (const ContactPoint<dim>& cp : contacts_)
+      if (cp.rigid >= 0) contact[cp.point] = 1;
+    for (std::size_t k = 0; k < owned.size(); ++k) {
+      const int i = owned[k];
+      if (!rigid_node(i)) continue;
+      const Vector<dim> vi = contact[i] ? Vector<dim>::Zero()
+                                        : Vector<dim>(rigid_body_of(i).velocity_map(grid_.point_position(
+                                                          grid_.global_index(i % points_))) *
+                                                      q[rigid_of_field_[i / points_]]);
+      for (int c = 0; c < dim; ++c) x[dim * k + c] = vi[c];
+    }
+    for (std::size_t b = 0; b < rigid_.size(); ++b) {
+      const PetscInt offset = (rigid_[b].block - rigid_first_) * dim;
+      if (offset >= 0 && offset < active_.local_blocks() * dim)
+        for (int j = 0; j < RigidBody<dim>::unknowns; ++j) x[offset + j] = q[b][j];
+    }
   }
   TALUS_PETSC(VecRestoreArray(v, &x));
   return v;

@@ -408,8 +408,10 @@ bool NewtonSolver<dim>::same_unknowns(const MomentumSystem<dim>& system) const {
   // are functions of the active points alone (the pattern couples every pair
   // of active points within the shape functions' reach), so an identical
   // active set on every rank means an identical system structure.
+  // Rigid bodies' rows couple with their contact points, which change
+  // without the active set changing: their systems are always built anew.
   int same = snes_ && reuse_ && !forced_direct_ && !stale_structure_ && unknown_count_ == system.active().global_count() &&
-             unknown_points_ == system.active().owned_points();
+             unknown_points_ == system.active().owned_points() && system.rigid_bodies().empty();
   int all = 0;
   MPI_Allreduce(&same, &all, 1, MPI_INT, MPI_MIN, comm_);
   return all == 1;
@@ -444,7 +446,8 @@ void NewtonSolver<dim>::build(MomentumSystem<dim>& system, PetscInt unknowns, bo
   // B-splines), whose matrix costs about 25 operator products to assemble,
   // more than the Krylov iterations of a Newton step need; in 2D (9 points)
   // the matrix is cheaper than the products (docs/solver.md#the-jacobian-as-an-operator).
-  context_.jacobian_operator = factorization_.reused_mode &&
+  // Rigid bodies' rows exist only in the assembled matrix.
+  context_.jacobian_operator = factorization_.reused_mode && system.rigid_bodies().empty() &&
                                (jacobian_choice_ == "operator" ||
                                 (jacobian_choice_ == "auto" && system.stencil_nodes() >= 27));
   if (context_.jacobian_operator) {

@@ -124,7 +124,8 @@ void particles_to_grid(const Grid<dim>& grid, const Particles<dim>& particles,
 template <int dim>
 void grid_to_particles(Particles<dim>& particles, const std::vector<Stencil<dim>>& stencils,
                        const std::vector<double>& v_new, const std::vector<double>& v_old,
-                       const std::vector<double>& v_p2g, double h, double theta, const TransferConfig& transfer) {
+                       const std::vector<double>& v_p2g, double h, double theta, const TransferConfig& transfer,
+                       const std::vector<char>* skip) {
   using RowMat = Eigen::Matrix<double, dim, dim, Eigen::RowMajor>;
   DM sw = particles.swarm();
   FieldView<PetscReal> x(sw, field::position), v(sw, field::velocity), c(sw, field::affine_velocity),
@@ -133,6 +134,7 @@ void grid_to_particles(Particles<dim>& particles, const std::vector<Stencil<dim>
   const bool apic = transfer.scheme == TransferScheme::apic;
   const double blend = transfer.flip_blend;
   for (PetscInt p = 0; p < np; ++p) {
+    if (skip && (*skip)[p]) continue;
     const Stencil<dim>& st = stencils[p];
     Vector<dim> v_end = Vector<dim>::Zero(), v_theta = Vector<dim>::Zero(), dv = Vector<dim>::Zero();
     Matrix<dim> grad_end = Matrix<dim>::Zero(), grad_theta = Matrix<dim>::Zero();
@@ -172,10 +174,12 @@ template void particles_to_grid<3>(const Grid<3>&, const Particles<3>&, const st
                                    TransferScheme, GridFields<3>&, int);
 template void grid_to_particles<2>(Particles<2>&, const std::vector<Stencil<2>>&,
                                    const std::vector<double>&, const std::vector<double>&,
-                                   const std::vector<double>&, double, double, const TransferConfig&);
+                                   const std::vector<double>&, double, double, const TransferConfig&,
+                                   const std::vector<char>*);
 template void grid_to_particles<3>(Particles<3>&, const std::vector<Stencil<3>>&,
                                    const std::vector<double>&, const std::vector<double>&,
-                                   const std::vector<double>&, double, double, const TransferConfig&);
+                                   const std::vector<double>&, double, double, const TransferConfig&,
+                                   const std::vector<char>*);
 
 }  // namespace talus
 

@@ -34,6 +34,12 @@ struct ContactPoint {
   double start_normal_velocity = 0.0;  // u_N^n
   double rho = 0.0;      // natural-map parameter: the point's mass m_i
   std::array<bool, dim> free;  // components not constrained by a slip face
+  // A rigid body's contact point (docs/contact.md#rigid-bodies): the index of
+  // the body in the step's rigid bodies (-1: a deformable body's), and the
+  // body's surface point at the contact, where its velocity is taken: the
+  // lowest point (along the normal) of the particle that sets the gap.
+  int rigid = -1;
+  Vector<dim> surface = Vector<dim>::Zero();
 };
 
 // A grid point where two velocity fields meet (docs/contact.md#bodies-in-contact):
@@ -59,7 +65,8 @@ std::vector<ContactPoint<dim>> find_contact_candidates(const Grid<dim>& grid, co
                                                        const std::vector<Stencil<dim>>& stencils,
                                                        const GridFields<dim>& fields, const ActiveSet<dim>& active,
                                                        const std::vector<Obstacle<dim>>& obstacles, double time,
-                                                       double h, double gap_prediction);
+                                                       double h, double gap_prediction,
+                                                       const std::vector<int>& rigid_of_field = {});
 
 // Points where two fields are predicted to touch within the step:
 // g + gap_prediction h min(u_N^n, 0) <= 0, with g the gap between the two
@@ -77,12 +84,15 @@ std::vector<ContactPoint<dim>> find_contact_candidates(const Grid<dim>& grid, co
 // the heaviest field is the hub and every other field there is paired with
 // it (a = that field, b = the hub): any number of fields can meet. Points
 // that are obstacle contacts or carry a constrained component are left out.
+// A rigid body's field (rigid_of_field[f] >= 0) is always the hub: its row is
+// its rigid constraint and the impulse goes to the body's equations; where two
+// rigid bodies meet, nothing holds them apart (not a contact point).
 template <int dim>
 std::vector<BodyContactPoint<dim>> find_body_contacts(const Grid<dim>& grid, const Particles<dim>& particles,
                                                       const std::vector<Stencil<dim>>& stencils,
                                                       const GridFields<dim>& fields, const ActiveSet<dim>& active,
                                                       const ContactConfig& config,
                                                       const std::vector<ContactPoint<dim>>& obstacle_contacts,
-                                                      double h);
+                                                      double h, const std::vector<int>& rigid_of_field = {});
 
 }  // namespace talus

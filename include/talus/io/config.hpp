@@ -141,6 +141,9 @@ struct BodyConfig {
   // last axis). k0 < 0: nu / (1 - nu) from the material's elastic stiffness.
   bool geostatic = false;
   double k0 = -1.0;
+  // A rigid body (docs/contact.md#rigid-bodies): its velocity field is
+  // constrained to a rigid motion; its material gives only its density.
+  bool rigid = false;
   // Particles read from a file (shape particle_file): positions (dim per
   // particle), volumes (m^3, m^2 per unit thickness in 2D), velocities (dim
   // per particle, or empty: `velocity` for all) and each particle's line in

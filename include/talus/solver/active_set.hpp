@@ -25,11 +25,15 @@ class ActiveSet {
   // compact unknown vector and the ghosted grid arrays. Velocity components
   // on fixed/slip faces are flagged as constrained (they stay unknowns, with
   // the trivial equation m_i v_i = 0, so the system size is active points x dim).
+  // `extra_blocks` blocks of dim unknowns that are no grid point (the
+  // rigid bodies' motions, rigid_body.hpp) follow the last rank's points.
   void build(const Grid<dim>& grid, const GridFields<dim>& fields, double threshold,
-             const std::array<FaceCondition, 6>& faces);
+             const std::array<FaceCondition, 6>& faces, int extra_blocks = 0);
 
-  PetscInt owned_count() const { return owned_count_; }
-  PetscInt global_count() const { return global_count_; }
+  PetscInt owned_count() const { return owned_count_; }    // owned active points
+  PetscInt local_blocks() const { return owned_count_ + extra_local_; }  // owned unknown blocks
+  PetscInt global_count() const { return global_count_; }  // unknown blocks, all ranks (extra ones included)
+  PetscInt extra_first() const { return extra_first_; }     // global block index of the first extra block
   PetscInt compact_index(int local_point) const { return compact_[local_point]; }
   const std::vector<int>& owned_points() const { return owned_points_; }  // ghosted index, compact order
   bool constrained(int local_point, int component) const { return constrained_[dim * local_point + component]; }
@@ -49,7 +53,7 @@ class ActiveSet {
  private:
   void destroy();
   MPI_Comm comm_ = MPI_COMM_NULL;
-  PetscInt owned_count_ = 0, global_count_ = 0;
+  PetscInt owned_count_ = 0, global_count_ = 0, extra_local_ = 0, extra_first_ = 0;
   std::vector<PetscInt> compact_;
   std::vector<int> owned_points_;
   std::vector<unsigned char> constrained_;

@@ -30,6 +30,16 @@
 // a's row becomes Phi(R_a(v), v_a - v_b) = 0 and b's the point's total
 // balance R_a(v) + R_b(v) = 0. Its Jacobian rows: P dR_a/dv + Q (e_a - e_b)
 // and dR_a/dv + dR_b/dv.
+//
+// Rigid bodies (rigid_body.hpp, docs/contact.md#rigid-bodies): a rigid body's
+// field rows are its rigid constraint m_i (v_i - T(x_i) q) = 0, its motion q
+// (two extra blocks, ActiveSet) carries the body's Newton-Euler rows, and at
+// a rigid body's obstacle contact point the unknown of the point is the
+// contact impulse r_k itself (a rigid body's impulses are not its nodes'
+// momentum imbalances), with the row Phi(r_k, T(x_s) q - v_obstacle +
+// eps r_k / rho) = 0: eps (rigid_compliance) makes the impulses of a body
+// resting on several points unique. Where a deformable field a touches a
+// rigid body (always the hub), the impulse R_a goes into the body's rows.
 #include <petscmat.h>
 
 #include <algorithm>
@@ -38,6 +48,7 @@
 #include "talus/contact/coulomb_cone.hpp"
 #include "talus/contact/contact_set.hpp"
 #include "talus/materials/material.hpp"
+#include "talus/particles/rigid_body.hpp"
 #include "talus/solver/active_set.hpp"
 #include "talus/solver/energy_balance.hpp"
 #include "talus/solver/ghost_penalty.hpp"
@@ -54,7 +65,11 @@ class MomentumSystem {
                  const GridFields<dim>& fields, const ActiveSet<dim>& active,
                  const std::vector<const Material*>& materials, const Vector<dim>& gravity, double h, double theta,
                  std::vector<ContactPoint<dim>> contacts = {},
-                 std::vector<BodyContactPoint<dim>> body_contacts = {});
+                 std::vector<BodyContactPoint<dim>> body_contacts = {},
+                 std::vector<RigidBody<dim>> rigid = {});
+  // A rigid body's contact compliance eps (dimensionless; the velocity
+  // into the obstacle it allows is eps r_N / m_i, about eps g h).
+  static constexpr double rigid_compliance = 1e-8;
   ~MomentumSystem();
   MomentumSystem(const MomentumSystem&) = delete;
   MomentumSystem& operator=(const MomentumSystem&) = delete;
@@ -119,6 +134,11 @@ class MomentumSystem {
   const std::vector<BodyContactPoint<dim>>& body_contacts() const { return body_contacts_; }
   const std::vector<Vector<dim>>& body_contact_impulses() const { return body_impulse_; }
   const std::vector<NaturalMap<dim>>& body_contact_maps() const { return body_map_; }
+  // The step's rigid bodies and, after finish(), their motions q^{n+1}.
+  const std::vector<RigidBody<dim>>& rigid_bodies() const { return rigid_; }
+  const std::vector<typename RigidBody<dim>::Motion>& rigid_motion() const { return motion_; }
+  // Per velocity field: the index of its rigid body, -1 for a deformable field.
+  const std::vector<int>& rigid_of_field() const { return rigid_of_field_; }
   double contact_seconds() const { return contact_seconds_; }  // time spent in the contact rows
   // Time in the particles' stress updates and internal forces (every
   // residual), in assembling Jacobian matrices and in operator products
@@ -145,6 +165,15 @@ class MomentumSystem {
   void neighbour_columns(const std::array<int, dim>& ijk, int field, std::vector<PetscInt>& cols,
                          std::vector<int>* points = nullptr) const;
   void contact_factors(Vec v);  // P_i, Q_i of the contacts at v (the first half of contact_row_factors)
+  // Rigid bodies: read q from v (on every rank), the rows of the rigid
+  // nodes and bodies (after contact_rows), and their Jacobian entries.
+  void gather_motion(Vec v);
+  void rigid_rows(Vec v, Vec F);
+  void rigid_jacobian(Mat J, const std::vector<double>& left);
+  bool rigid_node(int node) const { return !rigid_.empty() && rigid_of_field_[node / points_] >= 0; }
+  bool rigid_particle(std::size_t p) const;
+  const RigidBody<dim>& rigid_body_of(int node) const { return rigid_[rigid_of_field_[node / points_]]; }
+  PetscInt rigid_first_ = 0;  // this rank's first unknown block (global)
 
   const Grid<dim>& grid_;
   const std::vector<Stencil<dim>>& stencils_;
@@ -197,6 +226,12 @@ class MomentumSystem {
   double material_seconds_ = 0.0, assembly_seconds_ = 0.0, operator_seconds_ = 0.0;
   int any_contacts_ = 0;  // on any rank
   const GhostPenalty<dim>* ghost_ = nullptr;
+  std::vector<RigidBody<dim>> rigid_;
+  std::vector<int> rigid_of_field_;
+  std::vector<typename RigidBody<dim>::Motion> motion_;  // q at the last evaluation
+  // This rank's share of each body's rows from the contacts (impulses on the
+  // body), filled by contact_rows.
+  std::vector<typename RigidBody<dim>::Motion> rigid_impulse_;
   std::vector<double> ghost_work_;  // h v_theta, ghosted (residual)
   void step_displacement(std::vector<double>& u) const;  // u = h v_theta at the last evaluation, ghosted
 };

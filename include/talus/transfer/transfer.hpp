@@ -65,9 +65,12 @@ void particles_to_grid(const Grid<dim>& grid, const Particles<dim>& particles,
 // particle velocities take v^{n+1} by APIC (v_p, C_p = sum v_i grad N_i^T)
 // or the FLIP/PIC blend v_p <- a (v_p + sum N (v^{n+1} - v_p2g)) + (1 - a) sum N v^{n+1}.
 // Positions are not clamped here (Simulation keeps particles inside the box).
+// Particles with `skip[p]` (those of rigid bodies, moved by
+// move_rigid_particles) are left as they are.
 template <int dim>
 void grid_to_particles(Particles<dim>& particles, const std::vector<Stencil<dim>>& stencils,
                        const std::vector<double>& v_new, const std::vector<double>& v_old,
-                       const std::vector<double>& v_p2g, double h, double theta, const TransferConfig& transfer);
+                       const std::vector<double>& v_p2g, double h, double theta, const TransferConfig& transfer,
+                       const std::vector<char>* skip = nullptr);
 
 }  // namespace talus
