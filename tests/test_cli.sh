@@ -35,6 +35,14 @@ grep -q "800 particles, area 2 m^2" fill.log || { echo "FAIL: fill_between_surfa
 grep -v '^#' slide3d.csv > slide.rows
 grep -v '^#' "$repo/inputs/particles/channel_slide_3d.csv" > committed.rows
 cmp -s slide.rows committed.rows || { echo "FAIL: fill_between_surfaces.py does not reproduce channel_slide_3d.csv"; exit 1; }
+# The disc of inputs/rolling_disc.yaml is what scripts/ring_disc.py writes
+# (the command in the case's header): 804 particles on 16 rings, and its
+# area pi R^2 = 0.125664 m^2 (the rings' areas shared out exactly).
+/usr/bin/python3 "$repo/scripts/ring_disc.py" --centre 0.5 0.3 --radius 0.2 --rings 16 --out disc.csv > disc.log
+grep -v '^#' disc.csv > slide.rows
+grep -v '^#' "$repo/inputs/particles/ring_disc_2d.csv" > committed.rows
+cmp -s slide.rows committed.rows || { echo "FAIL: ring_disc.py does not reproduce ring_disc_2d.csv"; exit 1; }
+grep -q "804 particles, area 0.125664 m^2" disc.log || { echo "FAIL: ring_disc.py: $(cat disc.log)"; exit 1; }
 
 # 3D: a bumpy sliding surface (an ESRI height map, 0.5 m cells) and the same
 # surface raised by 0.5 m at 15 interior nodes. Both are split into the same

@@ -1,6 +1,7 @@
 // The contact rows of the step's system (docs/contact.md): the natural map
 // of the Coulomb cone on the rows of obstacle contact points and of bodies
 // in contact, and the factors their Jacobian rows are made of.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
@@ -25,7 +26,12 @@ void MomentumSystem<dim>::contact_rows(Vec v, Vec F) {
       const RigidBody<dim>& rb = rigid_[cp.rigid];
       const Vector<dim> r = Eigen::Map<const Vector<dim>>(x + cp.row);
       const typename RigidBody<dim>::Map T = rb.velocity_map(cp.surface);
-      const Vector<dim> u = T * motion_[cp.rigid] - cp.obstacle_velocity + (rigid_compliance / cp.rho) * r;
+      // An open gap g > 0 may close within the step: the normal velocity is
+      // measured against -g / h (the body reaches the obstacle at t^{n+1}),
+      // not against 0, which would stop a rolling body's next contact point
+      // before it touches (an inelastic impact per grid cell rolled).
+      const Vector<dim> u = T * motion_[cp.rigid] - cp.obstacle_velocity + (rigid_compliance / cp.rho) * r +
+                            (std::max(cp.gap, 0.0) / h_) * cp.normal;
       contact_impulse_[c] = r;
       contact_map_[c] = natural_map<dim>(r, u, cp.normal, cp.friction, cp.restitution, cp.start_normal_velocity, cp.rho);
       Eigen::Map<Vector<dim>>(f + cp.row) = contact_map_[c].value;

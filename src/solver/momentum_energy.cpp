@@ -16,6 +16,7 @@ StepEnergy MomentumSystem<dim>::step_energy(double stress_weight, double velocit
   // on every free component; a constrained component loses (1/2) m (v^n)^2
   // of the P2G velocity at once (its row is m v = 0).
   for (const int i : active_.owned_points()) {
+    if (rigid_node(i)) continue;  // a rigid body's energy is its motion q's (below)
     const double m = fields_.mass[i];
     for (int c = 0; c < dim; ++c) {
       const std::size_t k = static_cast<std::size_t>(dim) * i + c;
@@ -55,12 +56,29 @@ StepEnergy MomentumSystem<dim>::step_energy(double stress_weight, double velocit
     for (std::size_t k = 0; k < u.size(); ++k)
       e.terms.time_integration += Ku[k] * ((1.0 - velocity_weight) * velocity_old_[k] + velocity_weight * velocity_[k]);
   }
-  // Contact points: the impulse r the obstacle gives works on v^w.
+  // Rigid bodies: G (q - q^n) = h (M g, 0) + sum T^T r times q is
+  // (1/2) q G q - (1/2) q^n G q^n + (1/2) dq G dq = h M g . V + sum r . T q:
+  // the kinetic energy of q, the backward-Euler dissipation of its rows,
+  // and the contact work at the surface points T q (below). Counted once,
+  // by the rank that owns q.
+  int rank = 0, size = 1;
+  MPI_Comm_rank(grid_.comm(), &rank);
+  MPI_Comm_size(grid_.comm(), &size);
+  for (std::size_t b = 0; b < rigid_.size() && rank == size - 1; ++b) {
+    const typename RigidBody<dim>::Inertia G = rigid_[b].generalized_mass();
+    const typename RigidBody<dim>::Motion dq = motion_[b] - rigid_[b].start;
+    e.grid_kinetic_start += 0.5 * rigid_[b].start.dot(G * rigid_[b].start);
+    e.grid_kinetic_end += 0.5 * motion_[b].dot(G * motion_[b]);
+    e.terms.time_integration += 0.5 * dq.dot(G * dq);
+  }
+  // Contact points: the impulse r the obstacle gives works on v^w (a rigid
+  // body's: on its velocity at the surface point, T(x_s) q).
   for (std::size_t c = 0; c < contacts.size(); ++c) {
     const int i = contacts[c].point;
     Vector<dim> v;
     for (int a = 0; a < dim; ++a)
       v[a] = (1.0 - velocity_weight) * velocity_old_[dim * i + a] + velocity_weight * velocity_[dim * i + a];
+    if (contacts[c].rigid >= 0) v = rigid_[contacts[c].rigid].velocity_map(contacts[c].surface) * motion_[contacts[c].rigid];
     e.terms.contact -= impulses[c].dot(v - contacts[c].obstacle_velocity);
     e.terms.obstacle_work += impulses[c].dot(contacts[c].obstacle_velocity);
   }

@@ -585,6 +585,23 @@ NewtonReport NewtonSolver<dim>::solve(MomentumSystem<dim>& system) {
     report = retried(report, run_snes(system, started_from_last_ ? Start::gravity : Start::last));
     report.predictor_retry = true;
   }
+  if (!report.converged && !system.rigid_bodies().empty()) {
+    // A rigid body's first Newton step into contact overshoots (every
+    // contact point taken as sticking makes impulses of 1 / eps, the
+    // residual grows 1e4 times), and the backtracking on |F|^2 then crawls:
+    // the step is solved again with the l2 line search, which accepts it
+    // (docs/contact.md#rigid-bodies, measured there).
+    SNESLineSearch line_search;
+    SNESLineSearchType type;
+    TALUS_PETSC(SNESGetLineSearch(solving_snes(), &line_search));
+    TALUS_PETSC(SNESLineSearchGetType(line_search, &type));
+    if (std::strcmp(type, SNESLINESEARCHBT) == 0) {
+      TALUS_PETSC(SNESLineSearchSetType(line_search, SNESLINESEARCHL2));
+      report = retried(report, run_snes(system, start));
+      TALUS_PETSC(SNESLineSearchSetType(line_search, SNESLINESEARCHBT));
+      report.line_search_retry = true;
+    }
+  }
   return report;
 }
 
