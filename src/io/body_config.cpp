@@ -392,4 +392,19 @@ void parse_body_pairs(YamlSection& k, CaseConfig& c) {
   c.contact.field_count = next;
 }
 
+// A rigid body's field carries its rigid motion only: no other body may
+// share it.
+void check_rigid_fields(std::vector<YamlSection>& sections, const CaseConfig& c) {
+  const auto field = [&](std::size_t k) { return c.contact.body_field.empty() ? 0 : c.contact.body_field[k]; };
+  for (std::size_t b = 0; b < c.bodies.size(); ++b) {
+    if (!c.bodies[b].rigid) continue;
+    for (std::size_t k = 0; k < c.bodies.size(); ++k)
+      if (k != b && field(k) == field(b))
+        sections[b].fail_value("rigid", "true",
+                               "needs a velocity field of its own, but body '" + c.bodies[b].name +
+                                   "' shares one with body '" + c.bodies[k].name +
+                                   "': name it in a pair of contact.bodies (docs/contact.md#rigid-bodies)");
+  }
+}
+
 }  // namespace talus

@@ -472,17 +472,7 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
     if (k.has("bodies")) parse_body_pairs(k, c);
     k.finish();
   }
-  // A rigid body's field carries its rigid motion only.
-  for (std::size_t b = 0; b < c.bodies.size(); ++b) {
-    if (!c.bodies[b].rigid) continue;
-    const auto field = [&](std::size_t k) { return c.contact.body_field.empty() ? 0 : c.contact.body_field[k]; };
-    for (std::size_t k = 0; k < c.bodies.size(); ++k)
-      if (k != b && field(k) == field(b))
-        body_sections[b].fail_value("rigid", "true",
-                                    "needs a velocity field of its own, but body '" + c.bodies[b].name +
-                                        "' shares one with body '" + c.bodies[k].name +
-                                        "': name it in a pair of contact.bodies (docs/contact.md#rigid-bodies)");
-  }
+  check_rigid_fields(body_sections, c);
 
   if (root.has("equilibrium")) {
     YamlSection e = root.section("equilibrium");

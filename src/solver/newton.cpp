@@ -146,16 +146,6 @@ PetscErrorCode resolve_on_fresh_factors(SNESLineSearch line_search, Vec x, Vec d
   return 0;
 }
 
-// Newton with at most max_it iterations and the given line search; tolerances
-// other than max_it are left to the physical test.
-void set_newton(SNES snes, PetscInt max_it, SNESLineSearchType line_search_type) {
-  TALUS_PETSC(SNESSetType(snes, SNESNEWTONLS));
-  TALUS_PETSC(SNESSetTolerances(snes, 0.0, 0.0, 0.0, max_it, PETSC_DEFAULT));
-  SNESLineSearch line_search;
-  TALUS_PETSC(SNESGetLineSearch(snes, &line_search));
-  TALUS_PETSC(SNESLineSearchSetType(line_search, line_search_type));
-}
-
 }  // namespace
 
 // The report of a step solved again: the retry's outcome, with the work of
@@ -408,8 +398,8 @@ bool NewtonSolver<dim>::same_unknowns(const MomentumSystem<dim>& system) const {
   // are functions of the active points alone (the pattern couples every pair
   // of active points within the shape functions' reach), so an identical
   // active set on every rank means an identical system structure.
-  // Rigid bodies' rows couple with their contact points, which change
-  // without the active set changing: their systems are always built anew.
+  // Rigid bodies' rows couple with contact points that change with the same
+  // active set: their systems are always built anew.
   int same = snes_ && reuse_ && !forced_direct_ && !stale_structure_ && unknown_count_ == system.active().global_count() &&
              unknown_points_ == system.active().owned_points() && system.rigid_bodies().empty();
   int all = 0;
@@ -586,11 +576,8 @@ NewtonReport NewtonSolver<dim>::solve(MomentumSystem<dim>& system) {
     report.predictor_retry = true;
   }
   if (!report.converged && !system.rigid_bodies().empty()) {
-    // A rigid body's first Newton step into contact overshoots (every
-    // contact point taken as sticking makes impulses of 1 / eps, the
-    // residual grows 1e4 times), and the backtracking on |F|^2 then crawls:
-    // the step is solved again with the l2 line search, which accepts it
-    // (docs/contact.md#rigid-bodies, measured there).
+    // A rigid body's first step into contact overshoots (impulses of 1 / eps)
+    // and bt then crawls: solve it again with l2 (docs/contact.md#rigid-bodies).
     SNESLineSearch line_search;
     SNESLineSearchType type;
     TALUS_PETSC(SNESGetLineSearch(solving_snes(), &line_search));

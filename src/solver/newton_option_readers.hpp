@@ -1,7 +1,7 @@
 #pragma once
 // Readers of talus's own solver options (-talus_<name>), read once before
 // the run writes anything (defined in newton_options.cpp).
-#include <petscsys.h>
+#include <petscsnes.h>
 
 #include <string>
 #include <vector>
@@ -12,5 +12,8 @@ namespace talus {
 PetscInt count_option(const char* name, PetscInt fallback);
 // One of `choices`, the first when not given.
 std::string choice_option(const char* name, const std::vector<std::string>& choices);
+// Newton with a line search of `line_search_type`, at most max_it
+// iterations, no PETSc tolerance (talus's own convergence test decides).
+void set_newton(SNES snes, PetscInt max_it, SNESLineSearchType line_search_type);
 
 }  // namespace talus

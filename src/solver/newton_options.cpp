@@ -148,4 +148,12 @@ std::string choice_option(const char* name, const std::vector<std::string>& choi
                    std::string(text) + "'");
 }
 
+void set_newton(SNES snes, PetscInt max_it, SNESLineSearchType line_search_type) {
+  TALUS_PETSC(SNESSetType(snes, SNESNEWTONLS));
+  TALUS_PETSC(SNESSetTolerances(snes, 0.0, 0.0, 0.0, max_it, PETSC_DEFAULT));
+  SNESLineSearch line_search;
+  TALUS_PETSC(SNESGetLineSearch(snes, &line_search));
+  TALUS_PETSC(SNESLineSearchSetType(line_search, line_search_type));
+}
+
 }  // namespace talus

@@ -21,5 +21,7 @@ void check_bodies_against_obstacles(std::vector<YamlSection>& sections, const Ca
 // and each body's velocity field (docs/contact.md#bodies-in-contact); the
 // bodies are read.
 void parse_body_pairs(YamlSection& k, CaseConfig& c);
+// After contact.bodies: a rigid body (rigid: true) has a velocity field of its own.
+void check_rigid_fields(std::vector<YamlSection>& sections, const CaseConfig& c);
 
 }  // namespace talus
