@@ -578,11 +578,17 @@ NewtonReport NewtonSolver<dim>::solve(MomentumSystem<dim>& system) {
   if (!report.converged && !system.rigid_bodies().empty()) {
     // A rigid body's first step into contact overshoots (impulses of 1 / eps)
     // and bt then crawls: solve it again with l2 (docs/contact.md#rigid-bodies).
+    // Only under Newton with bt (a trust region has no line search: its
+    // line-search object has no type).
     SNESLineSearch line_search;
-    SNESLineSearchType type;
-    TALUS_PETSC(SNESGetLineSearch(solving_snes(), &line_search));
-    TALUS_PETSC(SNESLineSearchGetType(line_search, &type));
-    if (std::strcmp(type, SNESLINESEARCHBT) == 0) {
+    SNESLineSearchType type = nullptr;
+    PetscBool line_search_newton = PETSC_FALSE;
+    TALUS_PETSC(PetscObjectTypeCompare(reinterpret_cast<PetscObject>(solving_snes()), SNESNEWTONLS, &line_search_newton));
+    if (line_search_newton) {
+      TALUS_PETSC(SNESGetLineSearch(solving_snes(), &line_search));
+      TALUS_PETSC(SNESLineSearchGetType(line_search, &type));
+    }
+    if (type && std::strcmp(type, SNESLINESEARCHBT) == 0) {
       TALUS_PETSC(SNESLineSearchSetType(line_search, SNESLINESEARCHL2));
       report = retried(report, run_snes(system, start));
       TALUS_PETSC(SNESLineSearchSetType(line_search, SNESLINESEARCHBT));
