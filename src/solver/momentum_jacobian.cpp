@@ -243,7 +243,7 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
   for (std::size_t c = 0; c < contact_left_.size() && !left.empty(); ++c) {
     const std::size_t k = static_cast<std::size_t>(contacts_[c].row / dim);
     diagonal[k] = contacts_[c].rigid >= 0
-                      ? Matrix<dim>(contact_left_[c] + (rigid_compliance / contacts_[c].rho) * contact_right_[c])
+                      ? Matrix<dim>(contact_left_[c] + (rigid_jacobian_compliance_ / contacts_[c].rho) * contact_right_[c])
                       : Matrix<dim>(fields_.mass[owned[k]] * contact_left_[c] + contact_right_[c]);
   }
   for (std::size_t c = 0; c < body_left_.size() && !left.empty(); ++c) {

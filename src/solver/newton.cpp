@@ -594,6 +594,14 @@ NewtonReport NewtonSolver<dim>::solve(MomentumSystem<dim>& system) {
       TALUS_PETSC(SNESLineSearchSetType(line_search, SNESLINESEARCHBT));
       report.line_search_retry = true;
     }
+    if (!report.converged) {
+      // Then with the impulses' columns regularized (a larger compliance in
+      // the Jacobian only): the Newton step into many new contact points
+      // no longer overshoots by 1 / eps (docs/contact.md#rigid-bodies).
+      system.set_rigid_jacobian_compliance(MomentumSystem<dim>::rigid_jacobian_compliance);
+      report = retried(report, run_snes(system, start));
+      report.regularized_retry = true;
+    }
   }
   return report;
 }

@@ -38,8 +38,10 @@
 // contact impulse r_k itself (a rigid body's impulses are not its nodes'
 // momentum imbalances), with the row Phi(r_k, T(x_s) q - v_obstacle +
 // eps r_k / rho) = 0: eps (rigid_compliance) makes the impulses of a body
-// resting on several points unique. Where a deformable field a touches a
-// rigid body (always the hub), the impulse R_a goes into the body's rows.
+// resting on several points unique (a failed step is solved again with a
+// Jacobian that regularizes them more, rigid_jacobian_compliance). Where a
+// deformable field a touches a rigid body (always the hub), the impulse R_a
+// goes into the body's rows.
 #include <petscmat.h>
 
 #include <algorithm>
@@ -70,6 +72,14 @@ class MomentumSystem {
   // A rigid body's contact compliance eps (dimensionless; the velocity
   // into the obstacle it allows is eps r_N / m_i, about eps g h).
   static constexpr double rigid_compliance = 1e-8;
+  // The compliance the Jacobian takes when a step with rigid bodies failed
+  // (NewtonSolver's last retry, docs/contact.md#rigid-bodies): a
+  // Levenberg-Marquardt-like regularization of the impulses' columns, so that
+  // a Newton step into many new contact points does not make impulses of
+  // 1 / eps (the residual, and so the answer, keeps eps). By default the
+  // Jacobian takes eps itself and is exact.
+  static constexpr double rigid_jacobian_compliance = 1e-4;
+  void set_rigid_jacobian_compliance(double eps) { rigid_jacobian_compliance_ = eps; }
   ~MomentumSystem();
   MomentumSystem(const MomentumSystem&) = delete;
   MomentumSystem& operator=(const MomentumSystem&) = delete;
@@ -227,6 +237,7 @@ class MomentumSystem {
   int any_contacts_ = 0;  // on any rank
   const GhostPenalty<dim>* ghost_ = nullptr;
   std::vector<RigidBody<dim>> rigid_;
+  double rigid_jacobian_compliance_ = rigid_compliance;
   std::vector<int> rigid_of_field_;
   std::vector<typename RigidBody<dim>::Motion> motion_;  // q at the last evaluation
   // This rank's share of each body's rows from the contacts (impulses on the

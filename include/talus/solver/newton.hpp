@@ -50,6 +50,7 @@ struct NewtonReport {
   double linear_seconds = 0.0;         // in KSPSolve (preconditioner set-up, factorizations and products included)          // Jacobian matrices assembled (with the operator: only for factors)
   long fresh_resolves = 0;             // Newton systems solved again on fresh factors after stale ones failed
   bool line_search_retry = false;      // a step with rigid bodies failed with bt and was solved again with l2
+  bool regularized_retry = false;      // ... and failed again: solved with the regularized Jacobian
   bool predictor_retry = false;        // Newton failed from one predictor and the step was solved from the other
 };
 
