@@ -20,7 +20,9 @@ void Simulation<dim>::record_contact_forces(const std::vector<ContactPoint<dim>>
     for (int a = 0; a < dim; ++a) local[o * dim + a] += force[a];
     if (by_field)
       for (int a = 0; a < dim; ++a) local[obstacles_.size() * dim + (o * fields + field) * dim + a] += force[a];
-    nodal_contacts_.push_back({grid_->point_position(grid_->global_index(point)), force, o, maps[c].region});
+    // A rigid body's impulse acts at its surface point (docs/contact.md#rigid-bodies).
+    const Vector<dim> at = contacts[c].rigid >= 0 ? contacts[c].surface : grid_->point_position(grid_->global_index(point));
+    nodal_contacts_.push_back({at, force, o, maps[c].region});
   }
   if (!obstacles_.empty())
     MPI_Allreduce(local.data(), total.data(), static_cast<int>(local.size()), MPI_DOUBLE, MPI_SUM, comm_);
