@@ -327,6 +327,13 @@ RunSummary Simulation<dim>::run_steps(std::ostream* progress, const ProgressOpti
       log.message(m.str());
     }
     StepReport r = advance(h_try);
+    if (r.rigid_overlap_points > 0 && !rigid_overlap_warned_) {
+      rigid_overlap_warned_ = true;
+      std::ostringstream m;
+      m << "  warning: two rigid bodies share " << r.rigid_overlap_points << " grid points at t = " << time_
+        << ": rigid bodies are not held apart from each other (docs/contact.md#rigid-bodies)";
+      log.message(m.str());
+    }
     summary.newton_iterations += r.newton.iterations;
     summary.linear_iterations += r.newton.linear_iterations;
     summary.transfer_seconds += r.transfer_seconds;

@@ -44,6 +44,25 @@ grep -v '^#' "$repo/inputs/particles/ring_disc_2d.csv" > committed.rows
 cmp -s slide.rows committed.rows || { echo "FAIL: ring_disc.py does not reproduce ring_disc_2d.csv"; exit 1; }
 grep -q "804 particles, area 0.125664 m^2" disc.log || { echo "FAIL: ring_disc.py: $(cat disc.log)"; exit 1; }
 
+# Two rigid blocks side by side, each paired with the base under them, share
+# grid points from the start: they are not held apart from each other, and
+# the run says so once (docs/contact.md#rigid-bodies).
+cat > rigid_pair.yaml <<EOF
+grid: {lower: [0, 0], upper: [1.2, 0.6], cell_size: 0.05}
+time: {end: 0.02, step: 0.01}
+output: {enabled: false}
+gravity: [0, -9.81]
+materials: [{name: rock, model: linear_elastic, density: 2000, youngs_modulus: 2.0e7, poisson_ratio: 0.3}]
+bodies: [{name: base, material: rock, box: {lower: [0.0, 0.0], upper: [1.2, 0.2]}},
+         {name: left, material: rock, rigid: true, box: {lower: [0.2, 0.2], upper: [0.5, 0.4]}},
+         {name: right, material: rock, rigid: true, box: {lower: [0.5, 0.2], upper: [0.8, 0.4]}}]
+contact: {bodies: [{pair: [left, base], friction: 0.3}, {pair: [right, base], friction: 0.3}]}
+boundaries: {x_min: fixed, x_max: fixed, y_min: fixed, y_max: free}
+EOF
+"$talus" run rigid_pair.yaml > rigid_pair.log 2>&1 || { echo "FAIL: the two rigid blocks did not run"; cat rigid_pair.log; exit 1; }
+[ "$(grep -c 'warning: two rigid bodies share' rigid_pair.log)" -eq 1 ] ||
+  { echo "FAIL: no single warning of two rigid bodies on one grid point"; cat rigid_pair.log; exit 1; }
+
 # 3D: a bumpy sliding surface (an ESRI height map, 0.5 m cells) and the same
 # surface raised by 0.5 m at 15 interior nodes. Both are split into the same
 # triangles, so the mass between them is the piecewise-linear tent of the

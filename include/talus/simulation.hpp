@@ -26,6 +26,7 @@ struct StepReport {
   double solve_seconds = 0;       // active set + Newton
   PetscInt contact_points = 0;    // global number of contact candidates
   PetscInt body_contact_points = 0;  // global number of points where two bodies touch
+  PetscInt rigid_overlap_points = 0;  // global number of grid points where two rigid bodies are both active
   long ghost_cells = 0;           // global number of cells under the ghost penalty (docs/solver.md#ghost-penalty)
   double contact_seconds = 0;     // detection + natural-map rows (part of solve_seconds)
   // Parts of solve_seconds: the particles' stress updates and internal
@@ -269,6 +270,7 @@ class Simulation {
   ParticleEnergy particle_energy_;
   PetscInt last_system_size_ = 0;
   long rebalances_ = 0;
+  bool rigid_overlap_warned_ = false;  // the warning of two rigid bodies on one grid point, once per run
   RunSummary summary_;
 };
 

@@ -376,6 +376,10 @@ void parse_body_pairs(YamlSection& k, CaseConfig& c) {
     for (const BodyContactPair& q : c.contact.body_pairs)
       if ((q.body_a == pair.body_a && q.body_b == pair.body_b) || (q.body_a == pair.body_b && q.body_b == pair.body_a))
         p.fail_value("pair", "is listed twice");
+    if (c.bodies[pair.body_a].rigid && c.bodies[pair.body_b].rigid)
+      p.fail_value("pair", "[" + names[0] + ", " + names[1] + "]",
+                   "names two rigid bodies: contact between rigid bodies is not supported, they would pass through "
+                   "each other (docs/contact.md#rigid-bodies)");
     pair.friction = p.real("friction");
     if (!(pair.friction >= 0.0 && pair.friction <= 10.0)) p.fail_value("friction", "must be in [0, 10]");
     p.finish();
