@@ -51,6 +51,11 @@ MomentumSystem<dim>::MomentumSystem(const Grid<dim>& grid, const Particles<dim>&
     motion_.push_back(rigid_[k].start);
   }
   rigid_impulse_.assign(rigid_.size(), RigidBody<dim>::Motion::Zero());
+  if (!rigid_.empty()) {
+    rigid_contact_.assign(nodes_, -1);
+    for (std::size_t c = 0; c < contacts_.size(); ++c)
+      if (contacts_[c].rigid >= 0) rigid_contact_[contacts_[c].point] = static_cast<int>(c);
+  }
   {
     Vec layout = active.create_vector();
     TALUS_PETSC(VecGetOwnershipRange(layout, &rigid_first_, nullptr));
@@ -300,13 +305,10 @@ Vec MomentumSystem<dim>::initial_guess(bool last) const {
       q[b] = rigid_[b].start;
       q[b].template head<dim>() += h_ * gravity_;
     }
-    std::vector<char> contact(nodes_, 0);
-    for (const ContactPoint<dim>& cp : contacts_)
-      if (cp.rigid >= 0) contact[cp.point] = 1;
     for (std::size_t k = 0; k < owned.size(); ++k) {
       const int i = owned[k];
       if (!rigid_node(i)) continue;
-      const Vector<dim> vi = contact[i] ? Vector<dim>::Zero()
+      const Vector<dim> vi = rigid_contact_[i] >= 0 ? Vector<dim>::Zero()
                                         : Vector<dim>(rigid_body_of(i).velocity_map(grid_.point_position(
                                                           grid_.global_index(i % points_))) *
                                                       q[rigid_of_field_[i / points_]]);

@@ -150,7 +150,8 @@ PetscErrorCode resolve_on_fresh_factors(SNESLineSearch line_search, Vec x, Vec d
 
 // The report of a step solved again: the retry's outcome, with the work of
 // both attempts.
-static NewtonReport retried(const NewtonReport& first, NewtonReport retry) {
+template <int dim>
+NewtonReport NewtonSolver<dim>::retried(const NewtonReport& first, NewtonReport retry) {
   retry.iterations += first.iterations;
   retry.linear_iterations += first.linear_iterations;
   retry.factorizations += first.factorizations;
@@ -575,34 +576,7 @@ NewtonReport NewtonSolver<dim>::solve(MomentumSystem<dim>& system) {
     report = retried(report, run_snes(system, started_from_last_ ? Start::gravity : Start::last));
     report.predictor_retry = true;
   }
-  if (!report.converged && !system.rigid_bodies().empty()) {
-    // A rigid body's first step into contact overshoots (impulses of 1 / eps)
-    // and bt then crawls: solve it again with l2 (docs/contact.md#rigid-bodies).
-    // Only under Newton with bt (a trust region has no line search: its
-    // line-search object has no type).
-    SNESLineSearch line_search;
-    SNESLineSearchType type = nullptr;
-    PetscBool line_search_newton = PETSC_FALSE;
-    TALUS_PETSC(PetscObjectTypeCompare(reinterpret_cast<PetscObject>(solving_snes()), SNESNEWTONLS, &line_search_newton));
-    if (line_search_newton) {
-      TALUS_PETSC(SNESGetLineSearch(solving_snes(), &line_search));
-      TALUS_PETSC(SNESLineSearchGetType(line_search, &type));
-    }
-    if (type && std::strcmp(type, SNESLINESEARCHBT) == 0) {
-      TALUS_PETSC(SNESLineSearchSetType(line_search, SNESLINESEARCHL2));
-      report = retried(report, run_snes(system, start));
-      TALUS_PETSC(SNESLineSearchSetType(line_search, SNESLINESEARCHBT));
-      report.line_search_retry = true;
-    }
-    if (!report.converged) {
-      // Then with the impulses' columns regularized (a larger compliance in
-      // the Jacobian only): the Newton step into many new contact points
-      // no longer overshoots by 1 / eps (docs/contact.md#rigid-bodies).
-      system.set_rigid_jacobian_compliance(MomentumSystem<dim>::rigid_jacobian_compliance);
-      report = retried(report, run_snes(system, start));
-      report.regularized_retry = true;
-    }
-  }
+  if (!report.converged && !system.rigid_bodies().empty()) report = retry_rigid(system, start, report);
   return report;
 }
 

@@ -46,9 +46,6 @@ void MomentumSystem<dim>::gather_motion(Vec v) {
 template <int dim>
 void MomentumSystem<dim>::rigid_rows(Vec v, Vec F) {
   constexpr int U = RigidBody<dim>::unknowns;
-  std::vector<char> contact(nodes_, 0);
-  for (const ContactPoint<dim>& cp : contacts_)
-    if (cp.rigid >= 0) contact[cp.point] = 1;
   PetscScalar* f;
   const PetscScalar* x;
   TALUS_PETSC(VecGetArray(F, &f));
@@ -57,7 +54,7 @@ void MomentumSystem<dim>::rigid_rows(Vec v, Vec F) {
   const auto& owned = active_.owned_points();
   for (std::size_t k = 0; k < owned.size(); ++k) {
     const int i = owned[k];
-    if (!rigid_node(i) || contact[i]) continue;
+    if (!rigid_node(i) || rigid_contact_[i] >= 0) continue;
     const Eigen::Map<const Vector<dim>> vi(velocity_.data() + static_cast<std::size_t>(dim) * i);  // T(x_i) q
     for (int c = 0; c < dim; ++c) f[dim * k + c] = fields_.mass[i] * (x[dim * k + c] - vi[c]);
   }
@@ -86,16 +83,13 @@ void MomentumSystem<dim>::rigid_jacobian(Mat J, const std::vector<double>& left)
   constexpr int U = RigidBody<dim>::unknowns;
   using Block = Eigen::Matrix<double, dim, U, Eigen::RowMajor>;
   using BlockT = Eigen::Matrix<double, U, dim, Eigen::RowMajor>;
-  std::vector<int> contact(nodes_, -1);
-  for (std::size_t c = 0; c < contacts_.size() && !left.empty(); ++c)
-    if (contacts_[c].rigid >= 0) contact[contacts_[c].point] = static_cast<int>(c);
   const auto& owned = active_.owned_points();
   for (std::size_t k = 0; k < owned.size(); ++k) {
     const int i = owned[k];
     if (!rigid_node(i)) continue;
     const RigidBody<dim>& rb = rigid_body_of(i);
     const PetscInt r = rigid_first_ + static_cast<PetscInt>(k), q[2] = {rb.block, rb.block + 1};
-    const int c = contact[i];
+    const int c = left.empty() ? -1 : rigid_contact_[i];  // (left is empty only without contacts)
     if (c < 0) {
       // m_i (v_i - T(x_i) q): -m_i T on q (m_i I on v_i with the masses).
       const Block block = -fields_.mass[i] * rb.velocity_map(grid_.point_position(grid_.global_index(i % points_)));

@@ -237,6 +237,7 @@ class MomentumSystem {
   int any_contacts_ = 0;  // on any rank
   const GhostPenalty<dim>* ghost_ = nullptr;
   std::vector<RigidBody<dim>> rigid_;
+  std::vector<int> rigid_contact_;  // per node: the index of its rigid body's obstacle contact, -1 for none
   double rigid_jacobian_compliance_ = rigid_compliance;
   std::vector<int> rigid_of_field_;
   std::vector<typename RigidBody<dim>::Motion> motion_;  // q at the last evaluation

@@ -163,6 +163,11 @@ class NewtonSolver {
   // or whichever of the two has the smaller residual.
   enum class Start { gravity, last, closer };
   NewtonReport run_snes(MomentumSystem<dim>& system, Start start);
+  // The retry's outcome with the work of both attempts.
+  static NewtonReport retried(const NewtonReport& first, NewtonReport retry);
+  // A failed step with rigid bodies solved again: with the l2 line search,
+  // then with a regularized Jacobian (newton_rigid_retry.cpp).
+  NewtonReport retry_rigid(MomentumSystem<dim>& system, Start start, NewtonReport report);
 
   MPI_Comm comm_;
   PetscInt direct_limit_;
