@@ -23,9 +23,12 @@ configurations (--configurations quasi-static): grids down to 0.00625 m at
 three strains, quasi-static steps of 0.5 s, and at 3.1 % strain
 (E = 313,920 Pa) a series whose settled top lies 0.4-0.75 of a cell past a
 knot on every grid, so that no grid function is entered by a sliver only.
+--quadrature domain --configurations fine: the whole column's L2 on grids
+from 0.05 down to 0.00078125 m at 3.3 % strain (E = 294,300 Pa), with the
+position of the settled top within its cell.
 
 usage: study_finite_strain_column.py [--talus build/talus] [--work DIR] [--quadrature point|domain]
-                                     [--configurations original|quasi-static]
+                                     [--configurations original|quasi-static|fine]
 """
 import argparse
 import glob
@@ -89,6 +92,12 @@ DOMAIN_CONFIGURATIONS = [
     (0.00625, 2, 0.5, 5.0, 313920.0),
 ]
 
+# The whole column's L2 on grids down to 0.00078125 m (--configurations fine,
+# domain quadrature): settlement about rho0 g l0^2 / (2 E) = l0 / 60, so the
+# settled top sits at a different fraction of a cell on each grid (printed).
+FINE_CONFIGURATIONS = [(cell, 2, 0.5, 5.0, 294300.0)
+                       for cell in (0.05, 0.025, 0.0125, 0.00625, 0.003125, 0.0015625, 0.00078125)]
+
 
 def case_text(cell, ppc, step, end, E, directory, quadrature="point"):
     return f"""grid:
@@ -142,11 +151,12 @@ def main():
     parser.add_argument("--talus", default=os.path.join(os.path.dirname(__file__), "..", "build", "talus"))
     parser.add_argument("--work", default=None)
     parser.add_argument("--quadrature", choices=["point", "domain"], default="point")
-    parser.add_argument("--configurations", choices=["original", "quasi-static"], default=None,
+    parser.add_argument("--configurations", choices=["original", "quasi-static", "fine"], default=None,
                         help="default: original with point quadrature, quasi-static with domain")
     args = parser.parse_args()
     chosen = args.configurations or ("quasi-static" if args.quadrature == "domain" else "original")
-    configurations = DOMAIN_CONFIGURATIONS if chosen == "quasi-static" else CONFIGURATIONS
+    configurations = {"original": CONFIGURATIONS, "quasi-static": DOMAIN_CONFIGURATIONS,
+                      "fine": FINE_CONFIGURATIONS}[chosen]
     work = args.work or tempfile.mkdtemp(prefix="finite_strain_")
     os.makedirs(work, exist_ok=True)
     rows = []
@@ -167,12 +177,16 @@ def main():
         rows.append({"inner L2": float(np.sqrt(np.mean(error[inner] ** 2))),"cell": cell, "ppc": ppc, "h": step, "steps": int(round(end / step)), "E": E,
                      "L2": float(np.sqrt(np.mean(error ** 2))), "bias": float(np.mean(error)),
                      "worst": float(np.abs(error).max()), "interior": float(np.abs(error[interior]).max()),
-                     "moved": float(np.abs(u[:, 1]).max() / cell), "vmax": float(np.abs(velocity).max())})
+                     "moved": float(np.abs(u[:, 1]).max() / cell),
+                     # The top domains' upper edge (half a spacing above the top
+                     # particle; the top is stress free, stretch 1) past the
+                     # last grid line below it, in cells: near 0 is a sliver.
+                     "top": float(((x[:, 1].max() + 0.5 * spacing) / cell) % 1.0), "vmax": float(np.abs(velocity).max())})
         print(f"run {n + 1}/{len(configurations)} done", file=sys.stderr)
     columns = [("cell", "cell m", "{:g}"), ("ppc", "ppc", "{}"), ("h", "h s", "{:g}"), ("steps", "steps", "{}"),
                ("E", "E Pa", "{:.4g}"), ("L2", "L2", "{:.2e}"), ("bias", "bias", "{:+.1e}"),
                ("worst", "worst", "{:.2e}"), ("interior", "interior", "{:.2e}"), ("inner L2", "L2 w/o 2 rows each end", "{:.2e}"),
-               ("moved", "moved cells", "{:.2f}"), ("vmax", "v_max m/s", "{:.0e}")]
+               ("moved", "moved cells", "{:.2f}"), ("top", "top past a grid line, cells", "{:.2f}"), ("vmax", "v_max m/s", "{:.0e}")]
     print("\n".join(table_lines(rows, columns)))
 
 

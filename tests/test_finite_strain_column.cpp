@@ -18,11 +18,16 @@ using namespace talus;
 
 namespace {
 
-constexpr double rho0 = 1000.0, g = 9.81, l0 = 1.0, E = 2e5;  // base strain rho0 g l0 / E = 4.9 %
+constexpr double rho0 = 1000.0, g = 9.81, l0 = 1.0;
 
-// The largest |sigma_yy - exact| / (rho0 g l0) over the particles with
-// 0.2 l0 < Y < 0.8 l0, after 10 quasi-static backward-Euler steps of 0.5 s.
-double interior_error(double cell, const char* quadrature) {
+struct ColumnError {
+  double interior;  // the largest |sigma_yy - exact| / (rho0 g l0) for 0.2 l0 < Y < 0.8 l0
+  double l2;        // the root mean square of (sigma_yy - exact) / (rho0 g l0) over all particles
+};
+
+// The column after 10 quasi-static backward-Euler steps of 0.5 s; E = 2e5 Pa
+// gives a base strain rho0 g l0 / E of 4.9 %.
+ColumnError column_error(double cell, const char* quadrature, double E = 2e5) {
   char yaml[1024];
   std::snprintf(yaml, sizeof yaml,
                 "grid: {lower: [0, 0], upper: [%.17g, %.17g], cell_size: %.17g, quadrature: %s}\n"
@@ -38,24 +43,26 @@ double interior_error(double cell, const char* quadrature) {
   Particles<2>& particles = sim.particles();
   FieldView<PetscReal> x(particles.swarm(), field::position), u(particles.swarm(), field::displacement),
       tau(particles.swarm(), field::stress), F(particles.swarm(), field::deformation_gradient);
-  double worst = 0.0;
+  double worst = 0.0, squares = 0.0;
   for (PetscInt p = 0; p < particles.local_count(); ++p) {
     const double Y = x[2 * p + 1] - u[2 * p + 1];
-    if (Y < 0.2 * l0 || Y > 0.8 * l0) continue;
     const double J = F[4 * p] * F[4 * p + 3] - F[4 * p + 1] * F[4 * p + 2];
     const double sigma_yy = tau[6 * p + 1] / J;  // Kirchhoff to Cauchy
-    worst = std::max(worst, std::abs(sigma_yy + rho0 * g * (l0 - Y)) / (rho0 * g * l0));
+    const double error = (sigma_yy + rho0 * g * (l0 - Y)) / (rho0 * g * l0);
+    squares += error * error;
+    if (Y > 0.2 * l0 && Y < 0.8 * l0) worst = std::max(worst, std::abs(error));
   }
-  std::printf("settling column, %s quadrature, cell %g m: interior stress error %.3e of rho0 g l0\n", quadrature, cell,
-              worst);
-  return worst;
+  const ColumnError result{worst, std::sqrt(squares / static_cast<double>(particles.local_count()))};
+  std::printf("settling column, %s quadrature, cell %g m, E %g Pa: interior stress error %.3e, L2 %.3e of rho0 g l0\n",
+              quadrature, cell, E, result.interior, result.l2);
+  return result;
 }
 
 }  // namespace
 
 TEST_CASE("finite-strain settling column: the interior stress converges with domain quadrature", "[verification]") {
-  const double coarse = interior_error(0.05, "domain"), fine = interior_error(0.025, "domain"),
-               finest = interior_error(0.0125, "domain");
+  const double coarse = column_error(0.05, "domain").interior, fine = column_error(0.025, "domain").interior,
+               finest = column_error(0.0125, "domain").interior;
   // Measured 2026-11-26: 9.02e-5, 8.98e-6, 4.32e-6 (order 3.3, then 1.1 as
   // it nears a floor of a few 1e-6 at this strain). Issue 13 asks order >= 1.5
   // (a factor 2^1.5 = 2.83 per halving) down to <= 1e-5 of rho0 g l0.
@@ -63,6 +70,18 @@ TEST_CASE("finite-strain settling column: the interior stress converges with dom
   CHECK(finest < 1e-5);
   // Point quadrature on the same grid: 6.70e-3, the knot-crossing error that
   // domain quadrature removes (more than a hundredfold smaller).
-  const double point = interior_error(0.025, "point");
+  const double point = column_error(0.025, "point").interior;
   CHECK(point > 100 * fine);
+}
+
+TEST_CASE("finite-strain settling column: the whole column's L2 reaches 1e-5 on a fine grid", "[verification]") {
+  // 3.3 % strain (E = 294,300 Pa); cell 0.0015625 m, 10,240 particles. The
+  // boundary rows set the L2 (docs/formulation.md#finite-strain-the-settling-column):
+  // measured 2026-11-26 4.64e-6, with the settled top 0.56 of a cell past a
+  // grid line (7.7e-6 at half the cell, where it is 0.12 past one). Issue 13
+  // asks <= 1e-5 of rho0 g l0 at fine grids.
+  const ColumnError fine = column_error(0.0015625, "domain", 294300.0);
+  CHECK(fine.l2 < 1e-5);
+  // Point quadrature on the same grid does not converge: about 1e-3.
+  CHECK(column_error(0.0015625, "point", 294300.0).l2 > 20 * fine.l2);
 }
