@@ -33,7 +33,7 @@ packages=(
   petsc-dev libeigen3-dev libhdf5-openmpi-dev libvtk9-dev
   libopenmpi-dev openmpi-bin catch2 libyaml-cpp-dev
   python3-numpy python3-matplotlib python3-vtk9 xvfb xauth hdf5-tools
-  python3-yaml
+  python3-yaml python3-h5py
 )
 
 if ! command -v dpkg-query >/dev/null 2>&1; then
