@@ -325,6 +325,26 @@ Vec MomentumSystem<dim>::initial_guess(bool last) const {
 }
 
 template <int dim>
+Vec MomentumSystem<dim>::time_error_weights() const {
+  Vec w = active_.create_vector();
+  TALUS_PETSC(VecZeroEntries(w));
+  PetscScalar* x;
+  TALUS_PETSC(VecGetArray(w, &x));
+  const auto& owned = active_.owned_points();
+  const std::vector<double>& last_a = fields_.last_acceleration;
+  for (std::size_t k = 0; k < owned.size() && has_last_acceleration(); ++k) {
+    const int i = owned[k];
+    if (rigid_node(i)) continue;
+    bool known = true;
+    for (int c = 0; c < dim; ++c) known = known && std::isfinite(last_a[dim * i + c]);
+    for (int c = 0; c < dim && known; ++c)
+      if (!active_.constrained(i, c)) x[dim * k + c] = fields_.mass[i];
+  }
+  TALUS_PETSC(VecRestoreArray(w, &x));
+  return w;
+}
+
+template <int dim>
 double MomentumSystem<dim>::momentum_scale() const {
   double local = 0.0;
   const double hg = h_ * gravity_.norm();

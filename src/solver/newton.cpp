@@ -169,6 +169,8 @@ NewtonSolver<dim>::NewtonSolver(MPI_Comm comm, PetscInt direct_limit, double bal
   // Read once, before the run writes anything.
   factorization_.stale_limit = count_option("refactor_iterations", default_refactor_iterations);
   scale_.stagnation_window = count_option("stagnation_iterations", default_stagnation_iterations);
+  scale_.time_fraction = real_option("balance_time_fraction", default_balance_time_fraction, 0.0, 1.0);
+  scale_.time_cap = time_tolerance_cap;
   fallback_limit_ = count_option("direct_fallback_limit", default_direct_fallback_limit);
   predict_last_acceleration_ = choice_option("newton_predictor", {"last", "gravity"}) == "last";
   jacobian_choice_ = choice_option("jacobian", {"auto", "matrix", "operator"});
@@ -513,9 +515,18 @@ NewtonReport NewtonSolver<dim>::run_snes(MomentumSystem<dim>& system, Start star
     TALUS_PETSC(SNESLineSearchSetPreCheck(line_search, resolve_on_fresh_factors<dim>, &context_));
     TALUS_PETSC(SNESSetMaxLinearSolveFailures(snes_, PETSC_MAX_INT));
   }
+  scale_.time_error = 0.0;
+  if (scale_.time_fraction > 0.0 && system.has_last_acceleration()) {
+    scale_.predictor = system.initial_guess(true);
+    scale_.weights = system.time_error_weights();
+    TALUS_PETSC(VecDuplicate(scale_.predictor, &scale_.work));
+  }
   PetscInt linear_before = 0, linear_after = 0;
   TALUS_PETSC(KSPGetTotalIterations(ksp, &linear_before));
   TALUS_PETSC(SNESSolve(snes_, nullptr, v));
+  TALUS_PETSC(VecDestroy(&scale_.predictor));
+  TALUS_PETSC(VecDestroy(&scale_.weights));
+  TALUS_PETSC(VecDestroy(&scale_.work));
   TALUS_PETSC(KSPGetTotalIterations(ksp, &linear_after));
   PetscInt recorded = 0;
   TALUS_PETSC(SNESGetConvergenceHistory(snes_, nullptr, nullptr, &recorded));
@@ -534,6 +545,8 @@ NewtonReport NewtonSolver<dim>::run_snes(MomentumSystem<dim>& system, Start star
     if (inner < 0) report.reason = SNESConvergedReasons[inner];
   }
   report.unbalance = scale_.unbalance;
+  report.time_error = scale_.time_error;
+  report.tolerance = scale_.step_tolerance;
   report.unbalances = scale_.history;
   report.linear_failures = linear_failures_;
   report.factorizations = factorization_.factorizations - factorizations_before;

@@ -3,6 +3,7 @@
 // SNES convergence test, docs/solver.md#convergence-the-momentum-balance-in-physical-units).
 #include <petscsnes.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "talus/solver/newton.hpp"
@@ -34,6 +35,22 @@ PetscErrorCode physical_convergence(SNES snes, PetscInt it, PetscReal, PetscReal
   ierr = VecNorm(F, NORM_1, &total);
   if (ierr) return ierr;
   scale->unbalance = total / scale->impulse;
+  scale->step_tolerance = scale->tolerance;
+  if (scale->predictor) {
+    Vec v;
+    ierr = SNESGetSolution(snes, &v);
+    if (ierr) return ierr;
+    ierr = VecWAXPY(scale->work, -1.0, scale->predictor, v);
+    if (ierr) return ierr;
+    ierr = VecPointwiseMult(scale->work, scale->work, scale->weights);
+    if (ierr) return ierr;
+    PetscReal distance = 0.0;
+    ierr = VecNorm(scale->work, NORM_1, &distance);
+    if (ierr) return ierr;
+    scale->time_error = 0.5 * distance / scale->impulse;
+    scale->step_tolerance =
+        std::max(scale->tolerance, std::min(scale->time_fraction * scale->time_error, scale->time_cap));
+  }
   PetscInt max_it = 0;
   ierr = SNESGetTolerances(snes, nullptr, nullptr, nullptr, &max_it, nullptr);
   if (ierr) return ierr;
@@ -44,7 +61,7 @@ PetscErrorCode physical_convergence(SNES snes, PetscInt it, PetscReal, PetscReal
   }
   if (scale->linear_failures && *scale->linear_failures > 0)
     *reason = SNES_DIVERGED_LINEAR_SOLVE;  // the iterate followed an unsolved system
-  else if (scale->unbalance <= scale->tolerance)
+  else if (scale->unbalance <= scale->step_tolerance)
     *reason = SNES_CONVERGED_FNORM_ABS;
   else if (it >= max_it)
     *reason = SNES_DIVERGED_MAX_IT;

@@ -10,6 +10,8 @@ namespace talus {
 
 // An integer in [0, 1e6]; `fallback` when not given.
 PetscInt count_option(const char* name, PetscInt fallback);
+// A real number in [lower, upper]; `fallback` when not given.
+double real_option(const char* name, double fallback, double lower, double upper);
 // One of `choices`, the first when not given.
 std::string choice_option(const char* name, const std::vector<std::string>& choices);
 // Newton with a line search of `line_search_type`, at most max_it

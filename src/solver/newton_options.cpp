@@ -133,6 +133,20 @@ PetscInt count_option(const char* name, PetscInt fallback) {
   return static_cast<PetscInt>(value);
 }
 
+double real_option(const char* name, double fallback, double lower, double upper) {
+  char text[64] = "";
+  PetscBool given = PETSC_FALSE;
+  TALUS_PETSC(PetscOptionsGetString(nullptr, "talus_", (std::string("-") + name).c_str(), text, sizeof text, &given));
+  if (!given) return fallback;
+  char* end = nullptr;
+  errno = 0;
+  const double value = std::strtod(text, &end);
+  if (end == text || *end != '\0' || errno == ERANGE || !(value >= lower && value <= upper))
+    throw InputError("PETSc option -talus_" + std::string(name) + ": expected a number in [" + std::to_string(lower) +
+                     ", " + std::to_string(upper) + "], got '" + std::string(text) + "'");
+  return value;
+}
+
 // A talus-specific choice option -talus_<name> (one of `choices`, the first
 // the default), read once, before the run writes anything.
 std::string choice_option(const char* name, const std::vector<std::string>& choices) {

@@ -42,6 +42,8 @@ struct NewtonReport {
   std::vector<double> residual_norms;  // ||F||_2 at every Newton iterate, the initial guess first
   std::vector<double> unbalances;      // U at every Newton iterate of the last attempt, the initial guess first
   double unbalance = 0.0;              // U at the last iterate (docs/solver.md#convergence)
+  double time_error = 0.0;             // E at the last iterate (docs/solver.md#the-tolerance-follows-the-time-error)
+  double tolerance = 0.0;              // the bound U was held to: max(balance_tolerance, min(fraction E, 1e-4))
   bool structure_built = false;        // matrix and KSP/PC built for this step (active set changed)
   bool direct_fallback = false;        // a linear solve failed and the step was solved again by LU
   long linear_failures = 0;            // linear solves that did not converge (the step is judged on U alone)
@@ -96,6 +98,16 @@ class NewtonSolver {
     bool stagnated = false;          // the current step failed by stagnation
     std::vector<double> history;     // U at every iterate of the current SNESSolve
     const long* linear_failures = nullptr;  // failed linear solves of the current SNESSolve: diverged
+    // The step's own time error (docs/solver.md#the-tolerance-follows-the-time-error):
+    // U may be as large as time_fraction times E = (1/2) sum_k w_k |v_k - p_k| / S,
+    // the backward-Euler local error estimated from the distance of the iterate
+    // v to the last step's acceleration continued, p, with the points'
+    // masses as weights w (zero where there is no last acceleration).
+    double time_fraction = 0.0;
+    Vec predictor = nullptr, weights = nullptr, work = nullptr;  // set for one SNESSolve
+    double time_error = 0.0;  // E at the last tested iterate
+    double time_cap = 0.0;        // the largest time_fraction E taken
+    double step_tolerance = 0.0;  // max(tolerance, min(time_fraction E, time_cap)) at the last tested iterate
   };
 
   // The reused LU factorization (used by the Jacobian and KSP callbacks).
@@ -121,6 +133,12 @@ class NewtonSolver {
   // fails (-talus_stagnation_iterations, 0: only the iteration limit;
   // docs/solver.md#stagnation).
   static constexpr PetscInt default_stagnation_iterations = 6;
+  // U may reach this fraction of the step's estimated time error E, but no
+  // more than time_tolerance_cap (-talus_balance_time_fraction; 0:
+  // balance_tolerance only): the algebraic error a hundredth of the time
+  // error (docs/solver.md#the-tolerance-follows-the-time-error).
+  static constexpr double default_balance_time_fraction = 1e-2;
+  static constexpr double time_tolerance_cap = 1e-4;
   // Largest system (unknowns) whose step is solved again by LU after a failed
   // linear solve (-talus_direct_fallback_limit); larger ones are cut back.
   // In 2D an LU of 20,000 unknowns costs about a second, one of 51,000 (the
