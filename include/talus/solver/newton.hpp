@@ -93,6 +93,7 @@ class NewtonSolver {
     double tolerance = 0.0;  // balance_tolerance
     double unbalance = 0.0;  // U of the last tested iterate
     PetscInt stagnation_window = 0;  // > 0: fail when U has had no new minimum for this many iterations
+    double stagnation_decrease = 0.05;  // a new minimum is this fraction below the last one
     double best = 0.0;               // smallest U of the current SNESSolve
     PetscInt best_iteration = 0;     // where it was reached
     bool stagnated = false;          // the current step failed by stagnation
@@ -129,7 +130,8 @@ class NewtonSolver {
   // Krylov iterations on stale LU factors above which the next Newton
   // iteration factors the matrix again (docs/solver.md#reused-factorizations).
   static constexpr PetscInt default_refactor_iterations = 30;
-  // Newton iterations without a new smallest unbalance U after which the step
+  // Newton iterations without a new smallest unbalance U (5 % below the last)
+  // after which the step
   // fails (-talus_stagnation_iterations, 0: only the iteration limit;
   // docs/solver.md#stagnation).
   static constexpr PetscInt default_stagnation_iterations = 6;
