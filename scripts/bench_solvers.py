@@ -20,7 +20,11 @@ wall height as the deposit's mean height over the 2 cm next to the wall
 
 A configuration's words of the form @key=value are keys of the case file's
 `solver:` section (docs/case_file.md#solver-optional) rather than PETSc
-options; the case must not have a `solver:` section of its own then.
+options; the case must not have a `solver:` section of its own then. A word
+%PATH runs that configuration with the talus binary PATH (an older build, for
+a before/after comparison in the same interleaved rounds):
+
+    /usr/bin/python3 scripts/bench_solvers.py --solver before=%/tmp/old/build/talus --solver after=
 
 Time it alone: other jobs on the machine change the CPU times.
 """
@@ -115,7 +119,8 @@ def main():
         name, _, opts = s.partition("=")
         words = shlex.split(opts)
         keys = dict(w[1:].split("=", 1) for w in words if w.startswith("@"))
-        configs.append((name, [w for w in words if not w.startswith("@")], keys))
+        binary = next((w[1:] for w in words if w.startswith("%")), args.talus)
+        configs.append((name, [w for w in words if w[0] not in "@%"], keys, binary))
     cases = [(os.path.splitext(os.path.basename(args.case))[0], os.path.abspath(args.case))] if args.case else [
         (f"reference_column_{f}", os.path.join(REPO, "inputs", f"reference_column_{f}.yaml"))
         for f in args.floors.split(",")]
@@ -125,11 +130,11 @@ def main():
     try:
         for rnd in range(args.rounds):
             for case_name, src in cases:
-                for name, opts, keys in configs:
+                for name, opts, keys, binary in configs:
                     label = f"{case_name}_{name}"
                     case, pvd = write_case(src, args.out, label, args.end, args.step, keys)
                     written.append(case)
-                    cpu, stdout = cpu_of([args.talus, "run", case, "--overwrite"] + opts)
+                    cpu, stdout = cpu_of([binary, "run", case, "--overwrite"] + opts)
                     summary = json.loads(stdout.split("talus-summary:", 1)[1].splitlines()[0])
                     row = results.setdefault((case_name, name), {"cpu": [], "summary": summary, "pvd": pvd})
                     row["cpu"].append(cpu)

@@ -141,21 +141,23 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
       if (active_.compact_index(st.local[b]) < 0) continue;
       // G(ij, k) = V_p h theta^2 sum_l A(ij, kl) dN_b/dx_l, then the block
       // of every node a: K_ab(i, k) = sum_j dN_a/dx_j G(ij, k).
-      Eigen::Matrix<double, nL, dim> G;
+      Eigen::Matrix<double, nL, dim> Gc;
       for (int k = 0; k < dim; ++k) {
-        G.col(k).setZero();
-        for (int l = 0; l < dim; ++l) G.col(k) += A.col(k * dim + l) * st.gradient[b][l];
+        Gc.col(k).setZero();
+        for (int l = 0; l < dim; ++l) Gc.col(k) += A.col(k * dim + l) * st.gradient[b][l];
       }
-      G *= scale * reference_volume_[p];
+      // Row-major, so that the dim entries K_ab(i, :) are one packed
+      // multiply-add per j (the loop below is a fifth of a 2D Newton iteration).
+      const Eigen::Matrix<double, nL, dim, Eigen::RowMajor> G = (scale * reference_volume_[p]) * Gc;
       for (int a = 0; a < st.count; ++a) {
         if (!block_row[a]) continue;
         double* row = block_row[a] + (lin[b] - lin[a] + centre) * dim;
-        for (int i = 0; i < dim; ++i)
-          for (int k = 0; k < dim; ++k) {
-            double value = 0.0;
-            for (int j = 0; j < dim; ++j) value += st.gradient[a][j] * G(i * dim + j, k);
-            row[i * row_length + k] += value;
-          }
+        const Vector<dim>& ga = st.gradient[a];
+        for (int i = 0; i < dim; ++i) {
+          Eigen::Matrix<double, 1, dim> value = ga[0] * G.row(i * dim);
+          for (int j = 1; j < dim; ++j) value += ga[j] * G.row(i * dim + j);
+          Eigen::Map<Eigen::Matrix<double, 1, dim>>(row + i * row_length) += value;
+        }
       }
     }
   }

@@ -20,6 +20,9 @@ namespace {
 template <int dim>
 PetscErrorCode form_residual(SNES, Vec v, Vec F, void* ctx) {
   auto* context = static_cast<typename NewtonSolver<dim>::CallbackContext*>(ctx);
+  const bool known = v == context->start && F == context->start_residual;
+  context->start = context->start_residual = nullptr;  // only SNES's first evaluation
+  if (known) return 0;
   return petsc_callback([&] { context->system->residual(v, F); });
 }
 
@@ -484,6 +487,8 @@ NewtonReport NewtonSolver<dim>::run_snes(MomentumSystem<dim>& system, Start star
       if (at_last < at_gravity) {
         std::swap(v, last);
         started_from_last_ = true;
+        context_.start = v;  // F_ = F(v), the system's latest evaluation
+        context_.start_residual = F_;
       }
     }
     TALUS_PETSC(VecDestroy(&last));
@@ -524,6 +529,7 @@ NewtonReport NewtonSolver<dim>::run_snes(MomentumSystem<dim>& system, Start star
   PetscInt linear_before = 0, linear_after = 0;
   TALUS_PETSC(KSPGetTotalIterations(ksp, &linear_before));
   TALUS_PETSC(SNESSolve(snes_, nullptr, v));
+  context_.start = context_.start_residual = nullptr;
   TALUS_PETSC(VecDestroy(&scale_.predictor));
   TALUS_PETSC(VecDestroy(&scale_.weights));
   TALUS_PETSC(VecDestroy(&scale_.work));

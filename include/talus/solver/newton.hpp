@@ -165,6 +165,10 @@ class NewtonSolver {
     long assembled = 0;  // Jacobian matrices assembled (since construction)
     double linear_seconds = 0.0;  // in KSPSolve, since construction
     std::chrono::steady_clock::time_point linear_start;
+    // The choice of the start left F(start) in `start_residual` (the SNES's
+    // function vector) as the system's latest evaluation: SNES's first
+    // residual, at `start` itself, is that one (one residual less per step).
+    Vec start = nullptr, start_residual = nullptr;
   };
 
  private:
