@@ -237,6 +237,7 @@ StepReport Simulation<dim>::advance(double h) {
   // from rest (zero acceleration), not from free fall over its long step.
   fields.last_acceleration =
       equilibrium_stage_ ? std::vector<double>(fields.velocity.size(), 0.0) : last_acceleration_;
+  fields.pseudo_time = equilibrium_stage_;
   {
     PetscInt local = static_cast<PetscInt>(body_contacts.size());
     MPI_Allreduce(&local, &report.body_contact_points, 1, MPIU_INT, MPI_SUM, comm_);

@@ -102,11 +102,14 @@ class MomentumSystem {
   Vec initial_guess(bool last = true) const;
   double momentum_scale() const;  // sum_i m_i (|v_i^n| + h |g|), all ranks
   // The step has the last step's grid acceleration (initial_guess(true) is
-  // then its continuation), and the weights of the time-error estimate
+  // then its continuation; not in a geostatic stage, whose steps start from
+  // rest in a pseudo-time), and the weights of the time-error estimate
   // (NewtonSolver::Scale): the point's mass on each velocity unknown with a
   // last acceleration, zero elsewhere (constrained components, rigid bodies'
   // points, their motions and contact impulses).
-  bool has_last_acceleration() const { return fields_.last_acceleration.size() == velocity_old_.size(); }
+  bool has_last_acceleration() const {
+    return !fields_.pseudo_time && fields_.last_acceleration.size() == velocity_old_.size();
+  }
   Vec time_error_weights() const;
   const ActiveSet<dim>& active() const { return active_; }
   // The explicit step needs the stresses only: no tangents A_p (jacobian()

@@ -32,6 +32,9 @@ struct GridFields {
   // then. Not set by P2G (the run keeps it between steps); empty: unknown.
   // The predictor of the Newton iteration (MomentumSystem::initial_guess).
   std::vector<double> last_acceleration;
+  // A geostatic stage's step (docs/equilibrium.md): its time is a pseudo-time,
+  // so Newton's tolerance does not follow a time error (NewtonSolver::Scale).
+  bool pseudo_time = false;
 };
 
 // Shape-function stencils of all local particles at their current positions.
