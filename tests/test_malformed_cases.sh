@@ -43,7 +43,14 @@ check_case() {
     local work
     work=$(mktemp -d "$scratch/work.XXXXXX")
     local out="$work.stdout" err="$work.stderr"
-    (cd "$work" && timeout 120 "${launcher[@]}" "$talus" "$command" "$file" > "$out" 2> "$err")
+    # Each start gets an Open MPI session directory of its own: Open MPI 4
+    # creates and removes /tmp/ompi.<host>.<uid> for every singleton, and
+    # starts that overlap race on it ("A call to mkdir was unable to create
+    # the desired directory ... File exists", orte_init failed, exit 1).
+    local session
+    session=$(mktemp -d "$scratch/ompi.XXXXXX")
+    (cd "$work" && OMPI_MCA_orte_tmpdir_base="$session" timeout 120 "${launcher[@]}" "$talus" "$command" "$file" \
+      > "$out" 2> "$err")
     local code=$?
     local errors
     errors=$(grep '^talus: error: ' "$err")
@@ -68,7 +75,7 @@ check_case() {
       sed 's/^/      stdout: /' "$out" | head -20
       sed 's/^/      stderr: /' "$err" | head -20
     fi
-    rm -rf "$work" "$out" "$err"
+    rm -rf "$work" "$out" "$err" "$session"
   done
   if [ -z "$problems" ]; then
     echo "PASS $label: ${message:-}"
