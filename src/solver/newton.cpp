@@ -520,19 +520,12 @@ NewtonReport NewtonSolver<dim>::run_snes(MomentumSystem<dim>& system, Start star
     TALUS_PETSC(SNESLineSearchSetPreCheck(line_search, resolve_on_fresh_factors<dim>, &context_));
     TALUS_PETSC(SNESSetMaxLinearSolveFailures(snes_, PETSC_MAX_INT));
   }
-  scale_.time_error = 0.0;
-  if (scale_.time_fraction > 0.0 && system.has_last_acceleration()) {
-    scale_.predictor = system.initial_guess(true);
-    scale_.weights = system.time_error_weights();
-    TALUS_PETSC(VecDuplicate(scale_.predictor, &scale_.work));
-  }
+  begin_time_error(scale_, system);
   PetscInt linear_before = 0, linear_after = 0;
   TALUS_PETSC(KSPGetTotalIterations(ksp, &linear_before));
   TALUS_PETSC(SNESSolve(snes_, nullptr, v));
   context_.start = context_.start_residual = nullptr;
-  TALUS_PETSC(VecDestroy(&scale_.predictor));
-  TALUS_PETSC(VecDestroy(&scale_.weights));
-  TALUS_PETSC(VecDestroy(&scale_.work));
+  end_time_error(scale_);
   TALUS_PETSC(KSPGetTotalIterations(ksp, &linear_after));
   PetscInt recorded = 0;
   TALUS_PETSC(SNESGetConvergenceHistory(snes_, nullptr, nullptr, &recorded));

@@ -19,6 +19,24 @@ namespace talus {
 // branches of the return map or the cone (docs/solver.md#stagnation); they
 // did not recover in our runs, so the step is cut back at once instead of
 // after the iteration limit.
+// The time-error estimate's vectors for one SNESSolve (Scale::predictor,
+// weights, work), where the step has a last acceleration to continue.
+template <int dim>
+void begin_time_error(typename NewtonSolver<dim>::Scale& scale, const MomentumSystem<dim>& system) {
+  scale.time_error = 0.0;
+  if (!(scale.time_fraction > 0.0 && system.has_last_acceleration())) return;
+  scale.predictor = system.initial_guess(true);
+  scale.weights = system.time_error_weights();
+  TALUS_PETSC(VecDuplicate(scale.predictor, &scale.work));
+}
+
+template <typename Scale>
+void end_time_error(Scale& scale) {
+  TALUS_PETSC(VecDestroy(&scale.predictor));
+  TALUS_PETSC(VecDestroy(&scale.weights));
+  TALUS_PETSC(VecDestroy(&scale.work));
+}
+
 template <int dim>
 PetscErrorCode physical_convergence(SNES snes, PetscInt it, PetscReal, PetscReal, PetscReal fnorm,
                                     SNESConvergedReason* reason, void* ctx) {
