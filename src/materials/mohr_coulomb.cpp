@@ -223,12 +223,8 @@ void MohrCoulomb::update(const Voigt& rotated_stress, const Voigt& strain_increm
   // principal_return is at most 2 sqrt(J2) + sin(phi) (2 p + sqrt(J2 / 3))
   // - 2 c cos(phi). Where that is <= 0 the step is elastic on every branch
   // test below; most particles of a resting or creeping mass are.
-  const double p = (trial[0] + trial[1] + trial[2]) / 3.0;
-  const double J2 = 0.5 * ((trial[0] - p) * (trial[0] - p) + (trial[1] - p) * (trial[1] - p) +
-                           (trial[2] - p) * (trial[2] - p)) +
-                    trial[3] * trial[3] + trial[4] * trial[4] + trial[5] * trial[5];
-  const double root = std::sqrt(J2);
-  if (2.0 * root + sin_phi_ * (2.0 * p + root / std::sqrt(3.0)) <= 2.0 * par_.cohesion * cos_phi_) {
+  const double p = mean_stress(trial), root_j2 = deviatoric_stress(trial) / std::sqrt(3.0);
+  if (2.0 * root_j2 + sin_phi_ * (2.0 * p + root_j2 / std::sqrt(3.0)) <= 2.0 * par_.cohesion * cos_phi_) {
     out.stress = trial;
     out.tangent = stiffness_;
     out.trial_sensitivity.setIdentity();

@@ -328,11 +328,12 @@ template <int dim>
 Vec MomentumSystem<dim>::time_error_weights() const {
   Vec w = active_.create_vector();
   TALUS_PETSC(VecZeroEntries(w));
+  if (!has_last_acceleration()) return w;
   PetscScalar* x;
   TALUS_PETSC(VecGetArray(w, &x));
   const auto& owned = active_.owned_points();
   const std::vector<double>& last_a = fields_.last_acceleration;
-  for (std::size_t k = 0; k < owned.size() && has_last_acceleration(); ++k) {
+  for (std::size_t k = 0; k < owned.size(); ++k) {
     const int i = owned[k];
     if (rigid_node(i)) continue;
     bool known = true;

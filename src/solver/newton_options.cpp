@@ -119,11 +119,20 @@ template std::vector<std::string> NewtonSolver<3>::options_read_by_no_configurat
 // A talus-specific count option -talus_<name> (an integer in [0, 1e6]),
 // read once, before the run writes anything. Parsed here: PETSc's own parser
 // would fail as an internal error instead of a clear input error.
-PetscInt count_option(const char* name, PetscInt fallback) {
-  char text[64] = "";
+namespace {
+
+// The text of -talus_<name>, or false when the option is not given.
+bool option_text(const char* name, char (&text)[64]) {
   PetscBool given = PETSC_FALSE;
   TALUS_PETSC(PetscOptionsGetString(nullptr, "talus_", (std::string("-") + name).c_str(), text, sizeof text, &given));
-  if (!given) return fallback;
+  return given;
+}
+
+}  // namespace
+
+PetscInt count_option(const char* name, PetscInt fallback) {
+  char text[64] = "";
+  if (!option_text(name, text)) return fallback;
   char* end = nullptr;
   errno = 0;
   const long value = std::strtol(text, &end, 10);
@@ -133,11 +142,11 @@ PetscInt count_option(const char* name, PetscInt fallback) {
   return static_cast<PetscInt>(value);
 }
 
+// A talus-specific real option -talus_<name> in [lower, upper], read once,
+// before the run writes anything.
 double real_option(const char* name, double fallback, double lower, double upper) {
   char text[64] = "";
-  PetscBool given = PETSC_FALSE;
-  TALUS_PETSC(PetscOptionsGetString(nullptr, "talus_", (std::string("-") + name).c_str(), text, sizeof text, &given));
-  if (!given) return fallback;
+  if (!option_text(name, text)) return fallback;
   char* end = nullptr;
   errno = 0;
   const double value = std::strtod(text, &end);
@@ -151,9 +160,7 @@ double real_option(const char* name, double fallback, double lower, double upper
 // the default), read once, before the run writes anything.
 std::string choice_option(const char* name, const std::vector<std::string>& choices) {
   char text[64] = "";
-  PetscBool given = PETSC_FALSE;
-  TALUS_PETSC(PetscOptionsGetString(nullptr, "talus_", (std::string("-") + name).c_str(), text, sizeof text, &given));
-  if (!given) return choices.front();
+  if (!option_text(name, text)) return choices.front();
   for (const std::string& c : choices)
     if (c == text) return c;
   std::string list;
