@@ -96,6 +96,11 @@ void ActiveSet<dim>::build(const Grid<dim>& grid, const GridFields<dim>& fields,
   }
 
   TALUS_PETSC(VecCreateSeq(PETSC_COMM_SELF, static_cast<PetscInt>(n) * dim, &work_));
+  TALUS_PETSC(VecZeroEntries(work_));
+  constrained_entries_.clear();
+  for (int i = 0; i < n; ++i)
+    for (int c = 0; c < dim && compact_[i] >= 0; ++c)
+      if (constrained_[dim * i + c]) constrained_entries_.push_back(dim * i + c);
   std::vector<PetscInt> from, to;
   for (int i = 0; i < n; ++i)
     if (compact_[i] >= 0)
@@ -108,6 +113,7 @@ void ActiveSet<dim>::build(const Grid<dim>& grid, const GridFields<dim>& fields,
                               &is_from));
   TALUS_PETSC(ISCreateGeneral(PETSC_COMM_SELF, static_cast<PetscInt>(to.size()), to.data(), PETSC_COPY_VALUES, &is_to));
   TALUS_PETSC(VecScatterCreate(layout_, is_from, work_, is_to, &scatter_));
+  active_entries_ = std::move(to);
   TALUS_PETSC(ISDestroy(&is_from));
   TALUS_PETSC(ISDestroy(&is_to));
 }
@@ -121,7 +127,7 @@ Vec ActiveSet<dim>::create_vector() const {
 
 template <int dim>
 void ActiveSet<dim>::to_grid(Vec compact, std::vector<double>& ghosted) const {
-  TALUS_PETSC(VecZeroEntries(work_));
+  // work_ is zero outside the active entries, which the scatter overwrites.
   TALUS_PETSC(VecScatterBegin(scatter_, compact, work_, INSERT_VALUES, SCATTER_FORWARD));
   TALUS_PETSC(VecScatterEnd(scatter_, compact, work_, INSERT_VALUES, SCATTER_FORWARD));
   const PetscScalar* w;
@@ -134,7 +140,9 @@ template <int dim>
 void ActiveSet<dim>::add_to_compact(const std::vector<double>& ghosted, Vec compact) const {
   PetscScalar* w;
   TALUS_PETSC(VecGetArray(work_, &w));
-  std::copy(ghosted.begin(), ghosted.end(), w);
+  // Only the active entries: the scatter reads no other, and work_ stays
+  // zero outside them for to_grid.
+  for (const PetscInt e : active_entries_) w[e] = ghosted[e];
   TALUS_PETSC(VecRestoreArray(work_, &w));
   TALUS_PETSC(VecScatterBegin(scatter_, work_, compact, ADD_VALUES, SCATTER_REVERSE));
   TALUS_PETSC(VecScatterEnd(scatter_, work_, compact, ADD_VALUES, SCATTER_REVERSE));

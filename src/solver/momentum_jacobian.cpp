@@ -137,25 +137,35 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
       lin[a] = 0;
       for (int ax = 0; ax < dim; ++ax) lin[a] += st.node[a][ax] * stride[ax];
     }
+    // G_b(ij, k) = V_p h theta^2 sum_l A(ij, kl) dN_b/dx_l for every node b
+    // first, then the blocks K_ab(i, k) = sum_j dN_a/dx_j G_b(ij, k) one block
+    // row a at a time: the G_b stay in L1 while row a's dim lines are
+    // written (with b outermost every b touched all n block rows).
+    // Row-major, so that the dim entries K_ab(i, :) are one packed
+    // multiply-add per j (the loop below is a fifth of a 2D Newton iteration).
+    using Gradient = Eigen::Matrix<double, nL, dim, Eigen::RowMajor>;
+    std::array<Gradient, max_nodes> G;
+    std::array<bool, max_nodes> active_b;
+    const double volume_scale = scale * reference_volume_[p];
     for (int b = 0; b < st.count; ++b) {
-      if (active_.compact_index(st.local[b]) < 0) continue;
-      // G(ij, k) = V_p h theta^2 sum_l A(ij, kl) dN_b/dx_l, then the block
-      // of every node a: K_ab(i, k) = sum_j dN_a/dx_j G(ij, k).
+      active_b[b] = active_.compact_index(st.local[b]) >= 0;
+      if (!active_b[b]) continue;
       Eigen::Matrix<double, nL, dim> Gc;
       for (int k = 0; k < dim; ++k) {
         Gc.col(k).setZero();
         for (int l = 0; l < dim; ++l) Gc.col(k) += A.col(k * dim + l) * st.gradient[b][l];
       }
-      // Row-major, so that the dim entries K_ab(i, :) are one packed
-      // multiply-add per j (the loop below is a fifth of a 2D Newton iteration).
-      const Eigen::Matrix<double, nL, dim, Eigen::RowMajor> G = (scale * reference_volume_[p]) * Gc;
-      for (int a = 0; a < st.count; ++a) {
-        if (!block_row[a]) continue;
+      G[b] = volume_scale * Gc;
+    }
+    for (int a = 0; a < st.count; ++a) {
+      if (!block_row[a]) continue;
+      const Vector<dim>& ga = st.gradient[a];
+      for (int b = 0; b < st.count; ++b) {
+        if (!active_b[b]) continue;
         double* row = block_row[a] + (lin[b] - lin[a] + centre) * dim;
-        const Vector<dim>& ga = st.gradient[a];
         for (int i = 0; i < dim; ++i) {
-          Eigen::Matrix<double, 1, dim> value = ga[0] * G.row(i * dim);
-          for (int j = 1; j < dim; ++j) value += ga[j] * G.row(i * dim + j);
+          Eigen::Matrix<double, 1, dim> value = ga[0] * G[b].row(i * dim);
+          for (int j = 1; j < dim; ++j) value += ga[j] * G[b].row(i * dim + j);
           Eigen::Map<Eigen::Matrix<double, 1, dim>>(row + i * row_length) += value;
         }
       }

@@ -34,34 +34,37 @@ void MomentumSystem<dim>::apply_jacobian(Vec x, Vec y) {
   // products (docs/solver.md#the-jacobian-as-an-operator).
   const auto t0 = std::chrono::steady_clock::now();
   active_.to_grid(x, operator_x_);
-  for (int i = 0; i < nodes_; ++i)
-    for (int c = 0; c < dim; ++c)
-      if (active_.constrained(i, c)) operator_x_[dim * i + c] = 0.0;
+  for (const int e : active_.constrained_entries()) operator_x_[e] = 0.0;
   operator_y_.assign(operator_x_.size(), 0.0);
   const double scale = h_ * theta_ * theta_;
-  constexpr int max_nodes = Stencil<dim>::max_nodes;
-  using NodeValues = Eigen::Matrix<double, Eigen::Dynamic, dim, Eigen::RowMajor, max_nodes, dim>;
-  NodeValues X, Y;
+  const double* xg = operator_x_.data();
+  double* yg = operator_y_.data();
   for (std::size_t p = 0; p < stencils_.size(); ++p) {
     if (!stiff_[p]) continue;
     const Stencil<dim>& st = stencils_[p];
     const int n = st.count;
-    // The particle's nodes' values and gradients as n x dim matrices, so
-    // that both sums are small dense products (coefficient-wise: Eigen's
-    // blocked product costs more than the sums at these sizes).
-    const Eigen::Map<const NodeValues> grad(st.gradient[0].data(), n, dim);
-    X.resize(n, dim);
-    for (int b = 0; b < n; ++b)
-      X.row(b) = Eigen::Map<const Vector<dim>>(operator_x_.data() + static_cast<std::size_t>(dim) * st.local[b]);
-    // L(k, l) = sum_b x_b,k dN_b/dx_l, flattened row-major (k dim + l) as A's columns.
-    const Eigen::Matrix<double, dim, dim, Eigen::RowMajor> L = X.transpose().lazyProduct(grad);
+    // One pass over the nodes gathers L(k, l) = sum_b x_b,k dN_b/dx_l
+    // (row-major, k dim + l: A's columns), with dim^2 independent sums; a
+    // second pass scatters y_a,i += sum_j T(i, j) dN_a/dx_j. (Eigen's
+    // products over the n x dim node matrices ran dim^2 strided passes.)
+    std::array<double, nL> L{};
+    for (int b = 0; b < n; ++b) {
+      const double* xb = xg + static_cast<std::size_t>(dim) * st.local[b];
+      const double* gb = st.gradient[b].data();
+      for (int k = 0; k < dim; ++k)
+        for (int l = 0; l < dim; ++l) L[k * dim + l] += xb[k] * gb[l];
+    }
     const Eigen::Matrix<double, nL, 1> t =
         scale * reference_volume_[p] * tangent_[p].lazyProduct(Eigen::Map<const Eigen::Matrix<double, nL, 1>>(L.data()));
-    // y_a,i = sum_j T(i, j) dN_a/dx_j: Y = grad T^T.
-    const Eigen::Map<const Eigen::Matrix<double, dim, dim, Eigen::RowMajor>> T(t.data());
-    Y.noalias() = grad.lazyProduct(T.transpose());
-    for (int a = 0; a < n; ++a)
-      Eigen::Map<Vector<dim>>(operator_y_.data() + static_cast<std::size_t>(dim) * st.local[a]) += Y.row(a).transpose();
+    for (int a = 0; a < n; ++a) {
+      double* ya = yg + static_cast<std::size_t>(dim) * st.local[a];
+      const double* ga = st.gradient[a].data();
+      for (int i = 0; i < dim; ++i) {
+        double sum = 0.0;
+        for (int j = 0; j < dim; ++j) sum += t[i * dim + j] * ga[j];
+        ya[i] += sum;
+      }
+    }
   }
   if (ghost_) ghost_->add_product(operator_x_, operator_y_, h_ * h_ * theta_);
   TALUS_PETSC(VecZeroEntries(y));

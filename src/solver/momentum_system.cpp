@@ -125,9 +125,7 @@ template <int dim>
 void MomentumSystem<dim>::evaluate_particles(Vec v) {
   const auto t0 = std::chrono::steady_clock::now();
   active_.to_grid(v, velocity_);
-  for (int i = 0; i < nodes_; ++i)
-    for (int c = 0; c < dim; ++c)
-      if (active_.constrained(i, c)) velocity_[dim * i + c] = 0.0;
+  for (const int e : active_.constrained_entries()) velocity_[e] = 0.0;
   if (!rigid_.empty()) {
     // A rigid body's grid velocities are its rigid motion (its contact
     // points' unknowns are impulses, not velocities).
@@ -248,8 +246,9 @@ void MomentumSystem<dim>::residual(Vec v, Vec F) {
     step_displacement(ghost_work_);
     ghost_->add_product(ghost_work_, force_, 1.0);
   }
-  for (int i = 0; i < nodes_; ++i)
-    for (int c = 0; c < dim; ++c) force_[dim * i + c] = active_.constrained(i, c) ? 0.0 : h_ * force_[dim * i + c];
+  // Only the active entries go to F (add_to_compact).
+  for (const PetscInt e : active_.active_entries()) force_[e] *= h_;
+  for (const int e : active_.constrained_entries()) force_[e] = 0.0;
   TALUS_PETSC(VecZeroEntries(F));
   active_.add_to_compact(force_, F);
 

@@ -40,8 +40,17 @@ class ActiveSet {
   // Holds every component of a point (the equilibrium stage's `contact:
   // stick`, docs/equilibrium.md): its equation becomes m_i v_i = 0.
   void constrain(int local_point) {
-    for (int c = 0; c < dim; ++c) constrained_[dim * local_point + c] = 1;
+    for (int c = 0; c < dim; ++c) {
+      if (!constrained_[dim * local_point + c] && compact_[local_point] >= 0)
+        constrained_entries_.push_back(dim * local_point + c);
+      constrained_[dim * local_point + c] = 1;
+    }
   }
+  // The constrained components of the active points, as positions i dim + c
+  // in the ghosted arrays (the inactive points' are zero there anyway).
+  const std::vector<int>& constrained_entries() const { return constrained_entries_; }
+  // The active points' components, as positions i dim + c in the ghosted arrays.
+  const std::vector<PetscInt>& active_entries() const { return active_entries_; }
 
   // A new unknown vector (block size dim), compact layout.
   Vec create_vector() const;
@@ -57,6 +66,10 @@ class ActiveSet {
   std::vector<PetscInt> compact_;
   std::vector<int> owned_points_;
   std::vector<unsigned char> constrained_;
+  std::vector<int> constrained_entries_;
+  // Positions i dim + c of the active points' components in the ghosted
+  // arrays: work_ is zero everywhere else, always (to_grid, add_to_compact).
+  std::vector<PetscInt> active_entries_;
   Vec layout_ = nullptr;  // compact template
   Vec work_ = nullptr;    // sequential, ghosted points x dim
   VecScatter scatter_ = nullptr;
