@@ -121,21 +121,23 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
   for (int ax = 0, w = 1; ax < dim; ++ax, w *= width) stride[ax] = w, centre += reach * w;
   constexpr int max_nodes = Stencil<dim>::max_nodes;
   const double scale = h_ * theta_ * theta_;
+  pack_stencils();
   for (std::size_t p = 0; p < stencils_.size(); ++p) {
-    const Stencil<dim>& st = stencils_[p];
     const StressTangent& A = tangent_[p];
     // A particle returned to the apex (also while it closes its voids) has
     // no stiffness, A = 0 exactly: nothing to add. In a spreading deposit
     // that is up to half of the particles.
     if (A.isZero(0.0)) continue;
+    const int first = packed_offset_[p], count = packed_offset_[p + 1] - first;
+    const int* local = packed_local_.data() + first;
+    const double* gradient = packed_gradient_.data() + static_cast<std::size_t>(dim) * first;
     // The particle's nodes: their block rows and positions.
     std::array<double*, max_nodes> block_row;
     std::array<int, max_nodes> lin;
-    for (int a = 0; a < st.count; ++a) {
-      const int sa = slot[st.local[a]];
+    for (int a = 0; a < count; ++a) {
+      const int sa = slot[local[a]];
       block_row[a] = sa < 0 ? nullptr : rows.data() + static_cast<std::size_t>(sa) * dim * row_length;
-      lin[a] = 0;
-      for (int ax = 0; ax < dim; ++ax) lin[a] += st.node[a][ax] * stride[ax];
+      lin[a] = packed_lin_[first + a];
     }
     // G_b(ij, k) = V_p h theta^2 sum_l A(ij, kl) dN_b/dx_l for every node b
     // first, then the blocks K_ab(i, k) = sum_j dN_a/dx_j G_b(ij, k) one block
@@ -147,20 +149,20 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
     std::array<Gradient, max_nodes> G;
     std::array<bool, max_nodes> active_b;
     const double volume_scale = scale * reference_volume_[p];
-    for (int b = 0; b < st.count; ++b) {
-      active_b[b] = active_.compact_index(st.local[b]) >= 0;
+    for (int b = 0; b < count; ++b) {
+      active_b[b] = active_.compact_index(local[b]) >= 0;
       if (!active_b[b]) continue;
       Eigen::Matrix<double, nL, dim> Gc;
       for (int k = 0; k < dim; ++k) {
         Gc.col(k).setZero();
-        for (int l = 0; l < dim; ++l) Gc.col(k) += A.col(k * dim + l) * st.gradient[b][l];
+        for (int l = 0; l < dim; ++l) Gc.col(k) += A.col(k * dim + l) * gradient[dim * b + l];
       }
       G[b] = volume_scale * Gc;
     }
-    for (int a = 0; a < st.count; ++a) {
+    for (int a = 0; a < count; ++a) {
       if (!block_row[a]) continue;
-      const Vector<dim>& ga = st.gradient[a];
-      for (int b = 0; b < st.count; ++b) {
+      const Eigen::Map<const Vector<dim>> ga(gradient + dim * a);
+      for (int b = 0; b < count; ++b) {
         if (!active_b[b]) continue;
         double* row = block_row[a] + (lin[b] - lin[a] + centre) * dim;
         for (int i = 0; i < dim; ++i) {

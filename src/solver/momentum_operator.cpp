@@ -20,6 +20,7 @@ void MomentumSystem<dim>::prepare_operator(Vec v) {
   if (!rigid_.empty()) throw std::logic_error("the Jacobian operator does not hold rigid bodies' rows");
   if (any_contacts_) contact_factors(v);
   if (!evaluated_at(v)) evaluate_particles(v);
+  pack_stencils();
 }
 
 template <int dim>
@@ -41,24 +42,25 @@ void MomentumSystem<dim>::apply_jacobian(Vec x, Vec y) {
   double* yg = operator_y_.data();
   for (std::size_t p = 0; p < stencils_.size(); ++p) {
     if (!stiff_[p]) continue;
-    const Stencil<dim>& st = stencils_[p];
-    const int n = st.count;
+    const int first = packed_offset_[p], n = packed_offset_[p + 1] - first;
+    const int* local = packed_local_.data() + first;
+    const double* gradient = packed_gradient_.data() + static_cast<std::size_t>(dim) * first;
     // One pass over the nodes gathers L(k, l) = sum_b x_b,k dN_b/dx_l
     // (row-major, k dim + l: A's columns), with dim^2 independent sums; a
     // second pass scatters y_a,i += sum_j T(i, j) dN_a/dx_j. (Eigen's
     // products over the n x dim node matrices ran dim^2 strided passes.)
     std::array<double, nL> L{};
     for (int b = 0; b < n; ++b) {
-      const double* xb = xg + static_cast<std::size_t>(dim) * st.local[b];
-      const double* gb = st.gradient[b].data();
+      const double* xb = xg + static_cast<std::size_t>(dim) * local[b];
+      const double* gb = gradient + dim * b;
       for (int k = 0; k < dim; ++k)
         for (int l = 0; l < dim; ++l) L[k * dim + l] += xb[k] * gb[l];
     }
     const Eigen::Matrix<double, nL, 1> t =
         scale * reference_volume_[p] * tangent_[p].lazyProduct(Eigen::Map<const Eigen::Matrix<double, nL, 1>>(L.data()));
     for (int a = 0; a < n; ++a) {
-      double* ya = yg + static_cast<std::size_t>(dim) * st.local[a];
-      const double* ga = st.gradient[a].data();
+      double* ya = yg + static_cast<std::size_t>(dim) * local[a];
+      const double* ga = gradient + dim * a;
       for (int i = 0; i < dim; ++i) {
         double sum = 0.0;
         for (int j = 0; j < dim; ++j) sum += t[i * dim + j] * ga[j];

@@ -122,8 +122,36 @@ bool MomentumSystem<dim>::evaluated_at(Vec v) const {
 }
 
 template <int dim>
+void MomentumSystem<dim>::pack_stencils() {
+  if (!packed_offset_.empty()) return;
+  // A Stencil reserves room for 4 functions per axis (domain quadrature) and
+  // its arrays lie a few kB apart, so on a large grid every particle read
+  // from the stencils cost a TLB miss and a dozen cache misses that no
+  // prefetcher foresaw: the Jacobian's product took 430 ns per particle at
+  // 128,000 particles in 3D, 200 ns from these packed arrays.
+  packed_offset_.assign(1, 0);
+  packed_local_.clear();
+  packed_gradient_.clear();
+  packed_lin_.clear();
+  // lin = sum_ax node[ax] width^ax, width = 2 reach + 1: lin(b) - lin(a) is
+  // b's position in a's block row, relative to its centre (jacobian()).
+  const int width = 2 * grid_.reach() + 1;
+  for (const Stencil<dim>& st : stencils_) {
+    for (int b = 0; b < st.count; ++b) {
+      int lin = 0;
+      for (int ax = 0, w = 1; ax < dim; ++ax, w *= width) lin += st.node[b][ax] * w;
+      packed_lin_.push_back(lin);
+      packed_local_.push_back(st.local[b]);
+      for (int k = 0; k < dim; ++k) packed_gradient_.push_back(st.gradient[b][k]);
+    }
+    packed_offset_.push_back(static_cast<int>(packed_local_.size()));
+  }
+}
+
+template <int dim>
 void MomentumSystem<dim>::evaluate_particles(Vec v) {
   const auto t0 = std::chrono::steady_clock::now();
+  pack_stencils();
   active_.to_grid(v, velocity_);
   for (const int e : active_.constrained_entries()) velocity_[e] = 0.0;
   if (!rigid_.empty()) {
@@ -143,7 +171,6 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
   const std::size_t np = stencils_.size();
   MaterialPointUpdate update;
   for (std::size_t p = 0; p < np; ++p) {
-    const Stencil<dim>& st = stencils_[p];
     if (rigid_particle(p)) {
       // A rigid body's particles do not strain: no stress, no internal force.
       stress_end_[p] = rotated_stress_[p] = stress_old_[p];
@@ -153,12 +180,15 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
       stiff_[p] = 0;
       continue;
     }
+    const int first = packed_offset_[p], count = packed_offset_[p + 1] - first;
+    const int* local = packed_local_.data() + first;
+    const double* gradient = packed_gradient_.data() + static_cast<std::size_t>(dim) * first;
     Matrix<dim> L = Matrix<dim>::Zero();
-    for (int k = 0; k < st.count; ++k) {
-      const std::size_t o = static_cast<std::size_t>(dim) * st.local[k];
+    for (int k = 0; k < count; ++k) {
+      const std::size_t o = static_cast<std::size_t>(dim) * local[k];
       const Vector<dim> vt = theta_ * Eigen::Map<const Vector<dim>>(velocity_.data() + o) +
                              (1.0 - theta_) * Eigen::Map<const Vector<dim>>(velocity_old_.data() + o);
-      L += vt * st.gradient[k].transpose();
+      L += vt * Eigen::Map<const Vector<dim>>(gradient + dim * k).transpose();
     }
     Eigen::Matrix3d L3 = Eigen::Matrix3d::Zero();
     L3.template topLeftCorner<dim, dim>() = L;
@@ -222,9 +252,9 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
     const Voigt st_theta = (1.0 - theta_) * stress_old_[p] + theta_ * update.stress;
     const Eigen::Matrix3d sigma = voigt_to_tensor(st_theta);
     const Matrix<dim> s_dim = sigma.template topLeftCorner<dim, dim>();
-    for (int k = 0; k < st.count; ++k) {
-      Eigen::Map<Vector<dim>> f(force_.data() + static_cast<std::size_t>(dim) * st.local[k]);
-      f += reference_volume_[p] * (s_dim * st.gradient[k]);
+    for (int k = 0; k < count; ++k) {
+      Eigen::Map<Vector<dim>> f(force_.data() + static_cast<std::size_t>(dim) * local[k]);
+      f += reference_volume_[p] * (s_dim * Eigen::Map<const Vector<dim>>(gradient + dim * k));
     }
   }
   if (!evaluated_at_) TALUS_PETSC(VecDuplicate(v, &evaluated_at_));

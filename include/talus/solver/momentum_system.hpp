@@ -217,6 +217,12 @@ class MomentumSystem {
   std::vector<double> state_end_, separation_end_;
   std::vector<double> closed_voids_;  // volumetric strain of the voids closed this step (<= 0)
   std::vector<Voigt> rotated_stress_;  // sigma* (the Jaumann-rotated start stress) of the last evaluation
+  // The stencils' local indices and gradients packed particle after
+  // particle (pack_stencils, once per step): particle p's nodes are
+  // packed_offset_[p] .. packed_offset_[p + 1] - 1.
+  std::vector<int> packed_offset_, packed_local_, packed_lin_;
+  std::vector<double> packed_gradient_;
+  void pack_stencils();
   std::vector<StressTangent> tangent_;
   std::vector<char> stiff_;  // A_p != 0 (a particle at the apex adds nothing to the Jacobian)
   // Jacobian assembly buffers (kept between Jacobians): the slot of each
