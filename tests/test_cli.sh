@@ -119,7 +119,7 @@ grep -q "bad.yaml:[0-9]*: materials\[0\].poisson_ratio = 0.7" bad.log || { echo 
 
 # A bad value of talus's own PETSc option: exit 2, named, no output.
 sed -e "s#directory: .*#directory: $work/bad_option_out#" "$repo/inputs/elastic_column.yaml" > bad_option.yaml
-for bad in "refactor_iterations 3x" "stagnation_iterations -1" "direct_fallback_limit 1e9"; do
+for bad in "refactor_iterations 3x" "stagnation_iterations -1" "direct_fallback_limit 1e9" "ilu_fill_limit 2e4"; do
   set -- $bad
   set +e
   "$talus" run bad_option.yaml -talus_$1 "$2" > bad_option.log 2>&1
@@ -129,6 +129,15 @@ for bad in "refactor_iterations 3x" "stagnation_iterations -1" "direct_fallback_
   grep -q -- "talus_$1: expected an integer in \[0, 1000000\], got '$2'" bad_option.log ||
     { echo "FAIL: message for -talus_$1 $2"; cat bad_option.log; exit 1; }
   [ ! -e "$work/bad_option_out" ] || { echo "FAIL: a bad option wrote output"; exit 1; }
+done
+# The 2D fill: ILU(1) up to -talus_ilu_fill_limit unknowns (the column has
+# about 500), ILU(0) above it (docs/solver.md#incomplete-factors-the-default-on-one-rank).
+sed -e "s#directory: .*#directory: $work/fill_out#" -e "s#end: .*#end: 0.01#" "$repo/inputs/elastic_column.yaml" > fill.yaml
+for limit in 20000:1 100:0; do
+  "$talus" run fill.yaml --overwrite -talus_snes_view -talus_ilu_fill_limit "${limit%%:*}" > fill.log 2>&1 ||
+    { echo "FAIL: run with -talus_ilu_fill_limit ${limit%%:*}"; cat fill.log; exit 1; }
+  grep -q "^ *${limit##*:} levels\{0,1\} of fill" fill.log ||
+    { echo "FAIL: -talus_ilu_fill_limit ${limit%%:*} should give ILU(${limit##*:})"; grep "of fill" fill.log; exit 1; }
 done
 # A case "file" that is a device would be read without end.
 set +e

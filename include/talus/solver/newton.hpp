@@ -141,6 +141,13 @@ class NewtonSolver {
   // error (docs/solver.md#the-tolerance-follows-the-time-error).
   static constexpr double default_balance_time_fraction = 1e-2;
   static constexpr double time_tolerance_cap = 1e-4;
+  // 2D (point quadrature, one velocity field): ILU(1) up to this many
+  // unknowns, ILU(0) above (-talus_ilu_fill_limit). On large systems the
+  // triangular solves are half of a Newton iteration and ILU(1)'s fill buys
+  // no Krylov iterations (docs/solver.md#incomplete-factors-the-default-on-one-rank);
+  // the same size as the LU fallback's limit, below which ILU(1)'s robustness at
+  // kinks (a fresh factor that fails costs an LU) is worth its fill.
+  static constexpr PetscInt default_ilu_fill_limit = 20000;
   // Largest system (unknowns) whose step is solved again by LU after a failed
   // linear solve (-talus_direct_fallback_limit); larger ones are cut back.
   // In 2D an LU of 20,000 unknowns costs about a second, one of 51,000 (the
@@ -198,6 +205,7 @@ class NewtonSolver {
   int velocity_fields_ = 1;
   ParticleQuadrature quadrature_ = ParticleQuadrature::point;  // sets the default ILU fill (configure)
   PetscInt fallback_limit_ = 0;  // -talus_direct_fallback_limit
+  PetscInt ilu_fill_limit_ = 0;  // -talus_ilu_fill_limit
   // Newton starts from v^n + h a with a the grid point's acceleration of the
   // last step (-talus_newton_predictor last, the default) or a = g (gravity).
   bool predict_last_acceleration_ = true;
