@@ -42,9 +42,7 @@ void MomentumSystem<dim>::apply_jacobian(Vec x, Vec y) {
   double* yg = operator_y_.data();
   for (std::size_t p = 0; p < stencils_.size(); ++p) {
     if (!stiff_[p]) continue;
-    const int first = packed_offset_[p], n = packed_offset_[p + 1] - first;
-    const int* local = packed_local_.data() + first;
-    const double* gradient = packed_gradient_.data() + static_cast<std::size_t>(dim) * first;
+    const auto [n, local, gradient] = nodes_of(p);
     // One pass over the nodes gathers L(k, l) = sum_b x_b,k dN_b/dx_l
     // (row-major, k dim + l: A's columns), with dim^2 independent sums; a
     // second pass scatters y_a,i += sum_j T(i, j) dN_a/dx_j. (Eigen's

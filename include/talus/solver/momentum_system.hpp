@@ -223,6 +223,25 @@ class MomentumSystem {
   std::vector<int> packed_offset_, packed_local_, packed_lin_;
   std::vector<double> packed_gradient_;
   void pack_stencils();
+  // Particle p's nodes: their count, local indices and gradients (dim per
+  // node), from the packed copy once it exists (implicit steps), else from
+  // the stencil itself (the explicit step reads each stencil once: a copy
+  // would cost it a pass).
+  struct NodeSpan {
+    int count;
+    const int* local;
+    const double* gradient;
+  };
+  NodeSpan nodes_of(std::size_t p) const {
+    static_assert(sizeof(Vector<dim>) == dim * sizeof(double), "gradients stored contiguously");
+    if (packed_offset_.empty()) {
+      const Stencil<dim>& st = stencils_[p];
+      return {st.count, st.local.data(), st.gradient[0].data()};
+    }
+    const int first = packed_offset_[p];
+    return {packed_offset_[p + 1] - first, packed_local_.data() + first,
+            packed_gradient_.data() + static_cast<std::size_t>(dim) * first};
+  }
   std::vector<StressTangent> tangent_;
   std::vector<char> stiff_;  // A_p != 0 (a particle at the apex adds nothing to the Jacobian)
   // Jacobian assembly buffers (kept between Jacobians): the slot of each
