@@ -255,8 +255,9 @@ void NewtonSolver<dim>::configure(PetscInt unknowns) {
     // the reference column: 2,108 Newton iterations against 2,079, no LU
     // fallback, a third less time in the linear solves;
     // docs/grid.md#particle-quadrature). Above -talus_ilu_fill_limit
-    // unknowns, ILU(0) in 2D too: the same Krylov iterations, cheaper
-    // triangular solves (51,200 and 204,800 particles: 13 and 20 % less CPU).
+    // unknowns, ILU(0) in 2D too: its cheaper triangular solves pay for
+    // 15-20 % more Krylov iterations, and the runs measured (51,200 and
+    // 204,800 particles) took 13 and 20 % less CPU.
     const bool point_2d = dim == 2 && quadrature_ == ParticleQuadrature::point && unknowns <= ilu_fill_limit_;
     const PetscInt levels = point_2d || velocity_fields_ > 1 ? 1 : 0;
     if (size == 1) {

@@ -143,8 +143,8 @@ class NewtonSolver {
   static constexpr double time_tolerance_cap = 1e-4;
   // 2D (point quadrature, one velocity field): ILU(1) up to this many
   // unknowns, ILU(0) above (-talus_ilu_fill_limit). On large systems the
-  // triangular solves are half of a Newton iteration and ILU(1)'s fill buys
-  // no Krylov iterations (docs/solver.md#incomplete-factors-the-default-on-one-rank);
+  // triangular solves are half of a Newton iteration, and ILU(0)'s cheaper
+  // ones pay for its extra Krylov iterations (docs/solver.md#what-a-newton-iteration-costs);
   // the same size as the LU fallback's limit, below which ILU(1)'s robustness at
   // kinks (a fresh factor that fails costs an LU) is worth its fill.
   static constexpr PetscInt default_ilu_fill_limit = 20000;
