@@ -130,7 +130,10 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
     if (A.isZero(0.0)) continue;
     const int first = packed_offset_[p], count = packed_offset_[p + 1] - first;
     const int* local = packed_local_.data() + first;
-    const double* gradient = packed_gradient_.data() + static_cast<std::size_t>(dim) * first;
+    // The gradients on the stack: the compiler then knows that the stores
+    // into the block rows below cannot change them.
+    std::array<double, max_nodes * dim> gradient;
+    std::copy_n(packed_gradient_.data() + static_cast<std::size_t>(dim) * first, count * dim, gradient.data());
     // The particle's nodes: their block rows and positions.
     std::array<double*, max_nodes> block_row;
     std::array<int, max_nodes> lin;
@@ -161,7 +164,7 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
     }
     for (int a = 0; a < count; ++a) {
       if (!block_row[a]) continue;
-      const Eigen::Map<const Vector<dim>> ga(gradient + dim * a);
+      const Eigen::Map<const Vector<dim>> ga(gradient.data() + dim * a);
       for (int b = 0; b < count; ++b) {
         if (!active_b[b]) continue;
         double* row = block_row[a] + (lin[b] - lin[a] + centre) * dim;
