@@ -254,10 +254,8 @@ void NewtonSolver<dim>::configure(PetscInt unknowns) {
     // coupling ILU(1) adds to the 5 x 5 rows of point quadrature (measured on
     // the reference column: 2,108 Newton iterations against 2,079, no LU
     // fallback, a third less time in the linear solves;
-    // docs/grid.md#particle-quadrature). Above -talus_ilu_fill_limit
-    // unknowns, ILU(0) in 2D too: its cheaper triangular solves pay for
-    // 15-20 % more Krylov iterations, and the runs measured (51,200 and
-    // 204,800 particles) took 13 and 20 % less CPU.
+    // docs/grid.md#particle-quadrature). ILU(0) in 2D above
+    // -talus_ilu_fill_limit unknowns too (default_ilu_fill_limit).
     const bool point_2d = dim == 2 && quadrature_ == ParticleQuadrature::point && unknowns <= ilu_fill_limit_;
     const PetscInt levels = point_2d || velocity_fields_ > 1 ? 1 : 0;
     if (size == 1) {
