@@ -84,6 +84,7 @@ StepReport Simulation<dim>::advance_explicit(double h) {
   }
   // theta = 1: the stress of the end of the step from L(v^{n+1}) (USL).
   MomentumSystem<dim> system(*grid_, *particles_, stencils, fields, active, materials_, gravity_, h, 1.0);
+  system.set_strain_increment(config_.time.strain_increment);
   system.skip_tangents();
 
   // 4. The internal force of the stresses at t^n, summed over ranks on the

@@ -342,6 +342,9 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
     c.time.courant = t.real("courant", c.time.courant);
     if (!(c.time.courant > 0.0 && c.time.courant <= 1.0)) t.fail_value("courant", "must be in (0, 1]");
     c.time.step = auto_step || (explicit_steps && !t.has("step")) ? 0.0 : t.positive("step", t.real("step"));
+    c.time.strain_increment = t.choice("strain_increment", {"linear", "logarithmic"}, "linear") == "logarithmic"
+                                  ? StrainIncrement::logarithmic
+                                  : StrainIncrement::linear;
     c.time.theta = t.real("theta", 1.0);
     if (!(c.time.theta >= 0.5 && c.time.theta <= 1.0))
       t.fail_value("theta", "must be in [0.5, 1]");

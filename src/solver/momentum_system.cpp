@@ -1,4 +1,5 @@
 #include "talus/solver/momentum_system.hpp"
+#include "talus/solver/strain_increment.hpp"
 
 #include <algorithm>
 #include <array>
@@ -198,8 +199,14 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
     const Voigt rotated = sn + h_ * spin_term(sn, 0.5 * (L3(0, 1) - L3(1, 0)), 0.5 * (L3(0, 2) - L3(2, 0)),
                                                0.5 * (L3(1, 2) - L3(2, 1)));
     Voigt strain;
-    strain << h_ * L3(0, 0), h_ * L3(1, 1), h_ * L3(2, 2), h_ * (L3(1, 2) + L3(2, 1)), h_ * (L3(0, 2) + L3(2, 0)),
-        h_ * (L3(0, 1) + L3(1, 0));
+    StrainIncrementResult logarithmic;  // docs/formulation.md#the-strain-increment
+    if (strain_increment_ == StrainIncrement::logarithmic) {
+      logarithmic = strain_increment(L3, h_, StrainIncrement::logarithmic);
+      strain = logarithmic.strain;
+    } else {
+      strain << h_ * L3(0, 0), h_ * L3(1, 1), h_ * L3(2, 2), h_ * (L3(1, 2) + L3(2, 1)), h_ * (L3(0, 2) + L3(2, 0)),
+          h_ * (L3(0, 1) + L3(1, 0));
+    }
     // Compression first closes the voids of a separated particle, stress
     // free: the volumetric strain d = max(tr d_eps, -s^n) (when negative) is
     // taken off the increment the solid sees (docs/plasticity.md).
@@ -227,7 +234,25 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
     // and d sigma*/d L_lk = -d sigma*/d L_kl, so one product with S per pair
     // k < l (one in 2D, three in 3D) instead of one per component.
     StressTangent& A = tangent_[p];
-    for (int k = 0; k < dim && with_tangents_; ++k)
+    if (strain_increment_ == StrainIncrement::logarithmic && with_tangents_) {
+      // A = D d(de)/dL + S d sigma*/dL, every column (d(de)/dL_kl and
+      // d(de)/dL_lk differ at second order).
+      for (int k = 0; k < dim; ++k)
+        for (int l = 0; l < dim; ++l) {
+          Voigt column = update.tangent * logarithmic.derivative.col(3 * k + l);
+          if (k != l) {
+            const int a = std::min(k, l), b = std::max(k, l);
+            const int pair = a == 0 ? b - 1 : 2;
+            const double sign = k < l ? 1.0 : -1.0;
+            column += sign * (update.trial_sensitivity * (h_ * spin_term(sn, pair == 0 ? 0.5 : 0.0,
+                                                                          pair == 1 ? 0.5 : 0.0,
+                                                                          pair == 2 ? 0.5 : 0.0)));
+          }
+          for (int i = 0; i < dim; ++i)
+            for (int j = 0; j < dim; ++j) A(i * dim + j, k * dim + l) = column[voigt_index(i, j)];
+        }
+    }
+    for (int k = 0; k < dim && with_tangents_ && strain_increment_ == StrainIncrement::linear; ++k)
       for (int l = k; l < dim; ++l) {
         const Voigt strain_column = h_ * update.tangent.col(voigt_index(k, l));
         if (k == l) {

@@ -13,6 +13,7 @@
 #include "talus/contact/obstacle.hpp"
 #include "talus/materials/material.hpp"
 #include "talus/shape/shape_functions.hpp"
+#include "talus/solver/strain_increment.hpp"
 
 namespace YAML {
 class Node;
@@ -55,6 +56,8 @@ struct TimeConfig {
   // stability limit of the shape functions is refused.
   double cfl = 0.5;
   double theta = 1.0;           // Moreau-Jean theta in [1/2, 1]
+  // h sym L or the Hencky strain of the step's stretch (strain_increment.hpp).
+  StrainIncrement strain_increment = StrainIncrement::linear;
   // Implicit only, `step: auto` (docs/solver.md#choosing-the-step): the
   // nominal step of every step is min(gravity_number sqrt(cell / |g|),
   // courant cell / v_max), v_max the fastest particle or obstacle at the

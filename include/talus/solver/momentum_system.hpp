@@ -52,6 +52,7 @@
 #include "talus/materials/material.hpp"
 #include "talus/particles/rigid_body.hpp"
 #include "talus/solver/active_set.hpp"
+#include "talus/solver/strain_increment.hpp"
 #include "talus/solver/energy_balance.hpp"
 #include "talus/solver/ghost_penalty.hpp"
 
@@ -115,6 +116,9 @@ class MomentumSystem {
   // The explicit step needs the stresses only: no tangents A_p (jacobian()
   // is then unavailable).
   void skip_tangents() { with_tangents_ = false; }
+  // The strain increment of the step (strain_increment.hpp,
+  // docs/formulation.md#the-strain-increment): linear (h sym L) by default.
+  void set_strain_increment(StrainIncrement kind) { strain_increment_ = kind; }
   // The ghost penalty (ghost_penalty.hpp, docs/solver.md#ghost-penalty) on
   // the step's displacement h v_theta: the momentum rows gain h K h v_theta,
   // the Jacobian h^2 theta K (inside the particles' pattern).
@@ -203,6 +207,7 @@ class MomentumSystem {
   Vector<dim> gravity_;
   double h_, theta_;
   bool with_tangents_ = true;
+  StrainIncrement strain_increment_ = StrainIncrement::linear;
 
   // Committed particle state at the start of the step (frozen during Newton).
   std::vector<Voigt> stress_old_;

@@ -1,0 +1,68 @@
+#include "talus/solver/strain_increment.hpp"
+
+#include <cmath>
+#include <limits>
+
+namespace talus {
+
+namespace {
+
+// A symmetric tensor in Voigt form with engineering shear.
+Voigt strain_voigt(const Eigen::Matrix3d& e) {
+  Voigt v;
+  v << e(0, 0), e(1, 1), e(2, 2), 2.0 * e(1, 2), 2.0 * e(0, 2), 2.0 * e(0, 1);
+  return v;
+}
+
+StrainIncrementResult linear_increment(const Eigen::Matrix3d& L, double h) {
+  StrainIncrementResult r;
+  r.strain = strain_voigt(0.5 * h * (L + L.transpose()));
+  r.derivative.setZero();
+  for (int k = 0; k < 3; ++k)
+    for (int l = 0; l < 3; ++l) r.derivative(voigt_index(k, l), 3 * k + l) = h;
+  return r;
+}
+
+}  // namespace
+
+StrainIncrementResult strain_increment(const Eigen::Matrix3d& L, double h, StrainIncrement kind) {
+  if (kind == StrainIncrement::linear) return linear_increment(L, h);
+  const Eigen::Matrix3d dF = Eigen::Matrix3d::Identity() + h * L;
+  if (!(dF.determinant() > 0.0)) {
+    // An inverted step (or a NaN velocity): no strain measure applies.
+    StrainIncrementResult r;
+    r.strain.setConstant(std::numeric_limits<double>::quiet_NaN());
+    r.derivative.setZero();
+    return r;
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(dF.transpose() * dF);
+  const Eigen::Vector3d c = eigen.eigenvalues();  // > 0: dF is not singular
+  const Eigen::Matrix3d& N = eigen.eigenvectors();
+  auto g = [](double x) { return 0.5 * std::log(x); };
+  auto dg = [](double x) { return 0.5 / x; };
+  Eigen::Vector3d gc;
+  for (int a = 0; a < 3; ++a) gc[a] = g(c[a]);
+  StrainIncrementResult r;
+  r.strain = strain_voigt(N * gc.asDiagonal() * N.transpose());
+  // d g(C) = sum_ab f_ab (n_a . dC n_b) n_a (x) n_b with f_aa = g'(c_a) and
+  // f_ab = (g(c_a) - g(c_b)) / (c_a - c_b) (for close eigenvalues the mean
+  // of g', where the divided difference loses its digits; exact to
+  // O(gap^2)); dC = h (E_lk dF + dF^T E_kl) for dL = E_kl.
+  Eigen::Matrix3d f;
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) {
+      const double gap = c[a] - c[b];
+      f(a, b) = std::abs(gap) > 1e-6 * (c[a] + c[b]) ? (gc[a] - gc[b]) / gap : 0.5 * (dg(c[a]) + dg(c[b]));
+    }
+  for (int k = 0; k < 3; ++k)
+    for (int l = 0; l < 3; ++l) {
+      Eigen::Matrix3d E = Eigen::Matrix3d::Zero();
+      E(k, l) = 1.0;
+      const Eigen::Matrix3d dC = h * (E.transpose() * dF + dF.transpose() * E);
+      const Eigen::Matrix3d projected = N.transpose() * dC * N;  // n_a . dC n_b
+      r.derivative.col(3 * k + l) = strain_voigt(N * f.cwiseProduct(projected) * N.transpose());
+    }
+  return r;
+}
+
+}  // namespace talus
