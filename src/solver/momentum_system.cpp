@@ -201,7 +201,7 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
     Voigt strain;
     StrainIncrementResult logarithmic;  // docs/formulation.md#the-strain-increment
     if (strain_increment_ == StrainIncrement::logarithmic) {
-      logarithmic = strain_increment(L3, h_, StrainIncrement::logarithmic);
+      logarithmic = strain_increment(L3, h_, StrainIncrement::logarithmic, with_tangents_ ? dim : 0);
       strain = logarithmic.strain;
     } else {
       strain << h_ * L3(0, 0), h_ * L3(1, 1), h_ * L3(2, 2), h_ * (L3(1, 2) + L3(2, 1)), h_ * (L3(0, 2) + L3(2, 0)),

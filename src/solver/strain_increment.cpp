@@ -25,7 +25,7 @@ StrainIncrementResult linear_increment(const Eigen::Matrix3d& L, double h) {
 
 }  // namespace
 
-StrainIncrementResult strain_increment(const Eigen::Matrix3d& L, double h, StrainIncrement kind) {
+StrainIncrementResult strain_increment(const Eigen::Matrix3d& L, double h, StrainIncrement kind, int derivative_dim) {
   if (kind == StrainIncrement::linear) return linear_increment(L, h);
   const Eigen::Matrix3d dF = Eigen::Matrix3d::Identity() + h * L;
   if (!(dF.determinant() > 0.0)) {
@@ -54,8 +54,9 @@ StrainIncrementResult strain_increment(const Eigen::Matrix3d& L, double h, Strai
       const double gap = c[a] - c[b];
       f(a, b) = std::abs(gap) > 1e-6 * (c[a] + c[b]) ? (gc[a] - gc[b]) / gap : 0.5 * (dg(c[a]) + dg(c[b]));
     }
-  for (int k = 0; k < 3; ++k)
-    for (int l = 0; l < 3; ++l) {
+  r.derivative.setZero();
+  for (int k = 0; k < derivative_dim; ++k)
+    for (int l = 0; l < derivative_dim; ++l) {
       Eigen::Matrix3d E = Eigen::Matrix3d::Zero();
       E(k, l) = 1.0;
       const Eigen::Matrix3d dC = h * (E.transpose() * dF + dF.transpose() * E);
