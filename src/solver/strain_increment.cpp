@@ -35,9 +35,24 @@ StrainIncrementResult strain_increment(const Eigen::Matrix3d& L, double h, Strai
     r.derivative.setZero();
     return r;
   }
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(dF.transpose() * dF);
-  const Eigen::Vector3d c = eigen.eigenvalues();  // > 0: dF is not singular
-  const Eigen::Matrix3d& N = eigen.eigenvectors();
+  const Eigen::Matrix3d C = dF.transpose() * dF;
+  Eigen::Vector3d c;  // > 0: dF is not singular
+  Eigen::Matrix3d N;
+  if (L(2, 0) == 0.0 && L(2, 1) == 0.0 && L(0, 2) == 0.0 && L(1, 2) == 0.0 && L(2, 2) == 0.0) {
+    // Plane strain: C = diag(C_2x2, 1), whose 2 x 2 block has the closed
+    // form c = m +- r, m = (C00 + C11)/2, r = |((C00 - C11)/2, C01)|, at the
+    // angle atan2(2 C01, C00 - C11)/2 (accurate to round-off; half the
+    // cost of the iterative 3 x 3 solver on the 2D column).
+    const double m = 0.5 * (C(0, 0) + C(1, 1)), half_gap = 0.5 * (C(0, 0) - C(1, 1));
+    const double r = std::hypot(half_gap, C(0, 1)), angle = 0.5 * std::atan2(C(0, 1), half_gap);
+    c << m + r, m - r, 1.0;
+    const double cs = std::cos(angle), sn = std::sin(angle);
+    N << cs, -sn, 0.0, sn, cs, 0.0, 0.0, 0.0, 1.0;
+  } else {
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(C);
+    c = eigen.eigenvalues();
+    N = eigen.eigenvectors();
+  }
   auto g = [](double x) { return 0.5 * std::log(x); };
   auto dg = [](double x) { return 0.5 / x; };
   Eigen::Vector3d gc;
@@ -55,14 +70,17 @@ StrainIncrementResult strain_increment(const Eigen::Matrix3d& L, double h, Strai
       f(a, b) = std::abs(gap) > 1e-6 * (c[a] + c[b]) ? (gc[a] - gc[b]) / gap : 0.5 * (dg(c[a]) + dg(c[b]));
     }
   r.derivative.setZero();
-  for (int k = 0; k < derivative_dim; ++k)
+  // dL = E_kl gives dC = h (e_l r_k^T + r_k e_l^T), r_k = dF^T e_k, so in the
+  // eigenbasis n_a . dC n_b = h (a_a b_b + b_a a_b) with a = N^T e_l (row l
+  // of N) and b = N^T r_k: a symmetric rank-2 matrix, no 3 x 3 products.
+  for (int k = 0; k < derivative_dim; ++k) {
+    const Eigen::Vector3d b = N.transpose() * dF.row(k).transpose();
     for (int l = 0; l < derivative_dim; ++l) {
-      Eigen::Matrix3d E = Eigen::Matrix3d::Zero();
-      E(k, l) = 1.0;
-      const Eigen::Matrix3d dC = h * (E.transpose() * dF + dF.transpose() * E);
-      const Eigen::Matrix3d projected = N.transpose() * dC * N;  // n_a . dC n_b
+      const Eigen::Vector3d a = N.row(l).transpose();
+      const Eigen::Matrix3d projected = h * (a * b.transpose() + b * a.transpose());
       r.derivative.col(3 * k + l) = strain_voigt(N * f.cwiseProduct(projected) * N.transpose());
     }
+  }
   return r;
 }
 
