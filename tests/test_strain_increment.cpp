@@ -80,7 +80,14 @@ TEST_CASE("the logarithmic increment's derivative equals central differences", "
   coincident(0, 0) = coincident(1, 1) = 1.5;
   coincident(2, 2) = -0.5;
   coincident(0, 1) = 1e-9;
-  for (const auto& [L, h] : {std::pair{general, 0.1}, std::pair{coincident, 0.1}, std::pair{general, 1e-4}}) {
+  // Plane strain (row and column 3 zero) takes the closed-form 2 x 2 path:
+  // a general one and one with coincident step stretches.
+  Eigen::Matrix3d plane = Eigen::Matrix3d::Zero(), plane_coincident = Eigen::Matrix3d::Zero();
+  plane.topLeftCorner<2, 2>() << 2.2, -0.7, 1.3, -1.1;
+  plane_coincident(0, 0) = plane_coincident(1, 1) = 1.5;
+  plane_coincident(0, 1) = 1e-9;
+  for (const auto& [L, h] : {std::pair{general, 0.1}, std::pair{coincident, 0.1}, std::pair{general, 1e-4},
+                             std::pair{plane, 0.1}, std::pair{plane_coincident, 0.1}}) {
     const StrainIncrementResult de = strain_increment(L, h, StrainIncrement::logarithmic);
     const double eps = 1e-6;
     for (int c = 0; c < 9; ++c) {
