@@ -198,15 +198,13 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
     const Voigt& sn = stress_old_[p];
     const Voigt rotated = sn + h_ * spin_term(sn, 0.5 * (L3(0, 1) - L3(1, 0)), 0.5 * (L3(0, 2) - L3(2, 0)),
                                                0.5 * (L3(1, 2) - L3(2, 1)));
-    Voigt strain;
-    StrainIncrementResult logarithmic;  // docs/formulation.md#the-strain-increment
-    if (strain_increment_ == StrainIncrement::logarithmic) {
-      logarithmic = strain_increment(L3, h_, StrainIncrement::logarithmic, with_tangents_ ? dim : 0);
-      strain = logarithmic.strain;
-    } else {
-      strain << h_ * L3(0, 0), h_ * L3(1, 1), h_ * L3(2, 2), h_ * (L3(1, 2) + L3(2, 1)), h_ * (L3(0, 2) + L3(2, 0)),
-          h_ * (L3(0, 1) + L3(1, 0));
-    }
+    // h sym L, or the Hencky strain of the step's stretch with its derivative
+    // (docs/formulation.md#the-strain-increment; the linear one's derivative
+    // is h on the matching component, taken below as it is).
+    const bool logarithmic = strain_increment_ == StrainIncrement::logarithmic;
+    const StrainIncrementResult increment =
+        strain_increment(L3, h_, strain_increment_, logarithmic && with_tangents_ ? dim : 0);
+    Voigt strain = increment.strain;
     // Compression first closes the voids of a separated particle, stress
     // free: the volumetric strain d = max(tr d_eps, -s^n) (when negative) is
     // taken off the increment the solid sees (docs/plasticity.md).
@@ -234,32 +232,19 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
     // and d sigma*/d L_lk = -d sigma*/d L_kl, so one product with S per pair
     // k < l (one in 2D, three in 3D) instead of one per component.
     StressTangent& A = tangent_[p];
-    if (strain_increment_ == StrainIncrement::logarithmic && with_tangents_) {
-      // A = D d(de)/dL + S d sigma*/dL, every column (d(de)/dL_kl and
-      // d(de)/dL_lk differ at second order).
-      for (int k = 0; k < dim; ++k)
-        for (int l = 0; l < dim; ++l) {
-          Voigt column = update.tangent * logarithmic.derivative.col(3 * k + l);
-          if (k != l) {
-            const int a = std::min(k, l), b = std::max(k, l);
-            const int pair = a == 0 ? b - 1 : 2;
-            const double sign = k < l ? 1.0 : -1.0;
-            column += sign * (update.trial_sensitivity * (h_ * spin_term(sn, pair == 0 ? 0.5 : 0.0,
-                                                                          pair == 1 ? 0.5 : 0.0,
-                                                                          pair == 2 ? 0.5 : 0.0)));
-          }
-          for (int i = 0; i < dim; ++i)
-            for (int j = 0; j < dim; ++j) A(i * dim + j, k * dim + l) = column[voigt_index(i, j)];
-        }
-    }
-    for (int k = 0; k < dim && with_tangents_ && strain_increment_ == StrainIncrement::linear; ++k)
+    for (int k = 0; k < dim && with_tangents_; ++k)
       for (int l = k; l < dim; ++l) {
-        const Voigt strain_column = h_ * update.tangent.col(voigt_index(k, l));
+        // D d(de)/dL_kl: h D[:, (kl)] for the linear increment; the
+        // logarithmic one's d(de)/dL_kl and d(de)/dL_lk differ at second order.
+        const Voigt strain_column = logarithmic ? Voigt(update.tangent * increment.derivative.col(3 * k + l))
+                                                : Voigt(h_ * update.tangent.col(voigt_index(k, l)));
         if (k == l) {
           for (int i = 0; i < dim; ++i)
             for (int j = 0; j < dim; ++j) A(i * dim + j, k * dim + k) = strain_column[voigt_index(i, j)];
           continue;
         }
+        const Voigt strain_column_lk =
+            logarithmic ? Voigt(update.tangent * increment.derivative.col(3 * l + k)) : strain_column;
         // d sigma*/d L_kl = h (dW s - s dW), dW = dW/dL_kl: the skew unit of
         // the pair k < l with W_kl = 1/2.
         const int pair = k == 0 ? l - 1 : 2;  // (0,1) -> a, (0,2) -> b, (1,2) -> c
@@ -270,7 +255,7 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
           for (int j = 0; j < dim; ++j) {
             const int v = voigt_index(i, j);
             A(i * dim + j, k * dim + l) = strain_column[v] + spin_column[v];
-            A(i * dim + j, l * dim + k) = strain_column[v] - spin_column[v];
+            A(i * dim + j, l * dim + k) = strain_column_lk[v] - spin_column[v];
           }
       }
 

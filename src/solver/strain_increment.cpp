@@ -14,19 +14,20 @@ Voigt strain_voigt(const Eigen::Matrix3d& e) {
   return v;
 }
 
-StrainIncrementResult linear_increment(const Eigen::Matrix3d& L, double h) {
+StrainIncrementResult linear_increment(const Eigen::Matrix3d& L, double h, int derivative_dim) {
   StrainIncrementResult r;
   r.strain = strain_voigt(0.5 * h * (L + L.transpose()));
+  if (derivative_dim == 0) return r;  // the step's hot path: no derivative asked for
   r.derivative.setZero();
-  for (int k = 0; k < 3; ++k)
-    for (int l = 0; l < 3; ++l) r.derivative(voigt_index(k, l), 3 * k + l) = h;
+  for (int k = 0; k < derivative_dim; ++k)
+    for (int l = 0; l < derivative_dim; ++l) r.derivative(voigt_index(k, l), 3 * k + l) = h;
   return r;
 }
 
 }  // namespace
 
 StrainIncrementResult strain_increment(const Eigen::Matrix3d& L, double h, StrainIncrement kind, int derivative_dim) {
-  if (kind == StrainIncrement::linear) return linear_increment(L, h);
+  if (kind == StrainIncrement::linear) return linear_increment(L, h, derivative_dim);
   const Eigen::Matrix3d dF = Eigen::Matrix3d::Identity() + h * L;
   if (!(dF.determinant() > 0.0)) {
     // An inverted step (or a NaN velocity): no strain measure applies.

@@ -31,8 +31,8 @@ struct StrainIncrementResult {
 };
 
 // L: the velocity gradient (3 x 3; zero rows and columns beyond dim in 2D).
-// The derivative is computed for the components k, l < derivative_dim only
-// (0: none, for an evaluation without tangents; the others are left zero).
+// The derivative is computed for the components k, l < derivative_dim only,
+// the others left zero; with derivative_dim 0 it is not computed at all.
 StrainIncrementResult strain_increment(const Eigen::Matrix3d& L, double h, StrainIncrement kind,
                                        int derivative_dim = 3);
 
