@@ -345,6 +345,7 @@ RunSummary Simulation<dim>::run_steps(std::ostream* progress, const ProgressOpti
     summary.operator_seconds += r.operator_seconds;
     summary.structure_builds += r.newton.structure_built;
     summary.direct_fallbacks += r.newton.direct_fallback;
+    summary.multigrid_fallbacks += r.newton.multigrid_fallback;
     summary.factorizations += r.newton.factorizations;
     summary.jacobian_matrices += r.newton.jacobian_matrices;
     if (!r.converged) {

@@ -61,6 +61,7 @@ struct RunSummary {
   double energy_balance_error = 0;  // J: K + G + E + the dissipated terms - (K0 + G0 + E0) (docs/energy.md)
   long structure_builds = 0;      // steps whose matrix and preconditioner structure was built anew
   long direct_fallbacks = 0;      // steps solved again by LU after a failed linear solve
+  long multigrid_fallbacks = 0;   // ... above the LU's limit, solved again on geometric multigrid
   long factorizations = 0;        // numeric LU factorizations with reused factors (docs/solver.md#reused-factorizations)
   long jacobian_matrices = 0;     // Jacobian matrices assembled (docs/solver.md#the-jacobian-as-an-operator)
   // Balanced ranks (docs/parallel.md): grid re-partitions during the run, the

@@ -122,7 +122,8 @@ void print_summary(const talus::CaseConfig& config, const talus::RunSummary& s, 
               << ", \"equilibrium_last_stress_change\": " << s.equilibrium_last_stress_change
               << ", \"equilibrium_unbalance\": " << s.equilibrium_unbalance
               << ", \"equilibrium_gravity_work\": " << s.equilibrium_gravity_work
-              << ", \"direct_fallbacks\": " << s.direct_fallbacks << ", \"factorizations\": " << s.factorizations
+              << ", \"direct_fallbacks\": " << s.direct_fallbacks
+              << ", \"multigrid_fallbacks\": " << s.multigrid_fallbacks << ", \"factorizations\": " << s.factorizations
               << ", \"jacobian_matrices\": " << s.jacobian_matrices
               << ", \"ranks\": " << s.final_load.ranks << ", \"rebalances\": " << s.rebalances
               << ", \"worst_imbalance\": " << s.worst_imbalance << ", \"final_min_rank_particles\": "

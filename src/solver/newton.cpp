@@ -178,6 +178,8 @@ NewtonSolver<dim>::NewtonSolver(MPI_Comm comm, PetscInt direct_limit, double bal
   ilu_fill_limit_ = count_option("ilu_fill_limit", default_ilu_fill_limit);
   predict_last_acceleration_ = choice_option("newton_predictor", {"last", "gravity"}) == "last";
   jacobian_choice_ = choice_option("jacobian", {"auto", "matrix", "operator"});
+  multigrid_coarse_unknowns_ = count_option("mg_coarse_unknowns", default_multigrid_coarse_unknowns);
+  multigrid_fallback_ = choice_option("multigrid_fallback", {"yes", "no"}) == "yes";
   check_petsc_options(comm);
 }
 
@@ -335,7 +337,7 @@ void NewtonSolver<dim>::configure(PetscInt unknowns) {
   PetscBool preonly = PETSC_FALSE, line_search = PETSC_FALSE;
   TALUS_PETSC(PetscObjectTypeCompare(reinterpret_cast<PetscObject>(ksp), KSPPREONLY, &preonly));
   TALUS_PETSC(PetscObjectTypeCompare(reinterpret_cast<PetscObject>(snes_), SNESNEWTONLS, &line_search));
-  factorization_.reused_mode = line_search && !preonly && solves_by_factors();
+  factorization_.reused_mode = line_search && !preonly && (solves_by_factors() || solves_by_multigrid());
   PetscBool ksp_chosen = PETSC_FALSE;
   TALUS_PETSC(PetscOptionsHasName(nullptr, "talus_", "-ksp_type", &ksp_chosen));
   // Without reuse the factors are always fresh and GMRES over them is one
@@ -408,25 +410,28 @@ bool NewtonSolver<dim>::same_unknowns(const MomentumSystem<dim>& system) const {
   // active set on every rank means an identical system structure.
   // Rigid bodies' rows couple with contact points that change with the same
   // active set: their systems are always built anew.
-  int same = snes_ && reuse_ && !forced_direct_ && !stale_structure_ && unknown_count_ == system.active().global_count() &&
-             unknown_points_ == system.active().owned_points() && system.rigid_bodies().empty();
+  int same = snes_ && reuse_ && !fallback_structure_ && !stale_structure_ && unknown_count_ == system.active().global_count() &&
+             unknown_points_ == system.active().owned_points() && system.rigid_bodies().empty() &&
+             (!solves_by_multigrid() || multigrid_held_ == contact_rows(system));
   int all = 0;
   MPI_Allreduce(&same, &all, 1, MPI_INT, MPI_MIN, comm_);
   return all == 1;
 }
 
 template <int dim>
-void NewtonSolver<dim>::build(MomentumSystem<dim>& system, PetscInt unknowns, bool direct) {
+void NewtonSolver<dim>::build(MomentumSystem<dim>& system, PetscInt unknowns, Fallback fallback) {
   destroy();
   ++builds_;
   stale_structure_ = false;
   // A fresh SNES (SNESReset leaves stale sizes inside some preconditioners,
   // e.g. GAMG's coarse solver).
   TALUS_PETSC(SNESCreate(comm_, &snes_));
-  forced_direct_ = direct;
+  fallback_structure_ = fallback != Fallback::none;
   factorization_.reused_mode = false;
   factorization_.refactor = true;
-  if (direct) {
+  if (fallback == Fallback::multigrid) {
+    configure_multigrid_fallback(system);
+  } else if (fallback == Fallback::direct) {
     // The fallback after a failed linear solve: Newton with the default
     // line search and an LU solve, whatever the options say.
     TALUS_PETSC(SNESSetOptionsPrefix(snes_, "talus_fallback_"));
@@ -437,6 +442,7 @@ void NewtonSolver<dim>::build(MomentumSystem<dim>& system, PetscInt unknowns, bo
     TALUS_PETSC(SNESSetConvergenceTest(snes_, physical_convergence<dim>, &scale_, nullptr));
   } else {
     configure(unknowns);
+    if (solves_by_multigrid()) build_multigrid(system);
   }
   J_ = system.create_matrix(matrix_type());
   // The Jacobian as an operator where kept factors precondition a Krylov
@@ -568,20 +574,13 @@ NewtonReport NewtonSolver<dim>::solve(MomentumSystem<dim>& system) {
   scale_.unbalance = 0.0;
   const PetscInt unknowns = system.active().global_count() * dim;
   const bool built = !same_unknowns(system);
-  if (built) build(system, unknowns, false);
+  if (built) build(system, unknowns, Fallback::none);
   const Start start = predict_last_acceleration_ ? Start::closer : Start::gravity;
   NewtonReport report = run_snes(system, start);
   report.structure_built = built;
-  if (!report.converged && report.linear_failures > 0 && !solves_by_lu() && unknowns <= fallback_limit_) {
-    // The preconditioner could not solve a Newton system: solve the step
-    // again with a direct factorization before giving up on this h. Not for
-    // a system above -talus_direct_fallback_limit, whose LU costs more than
-    // the cut-back that follows a failed step (docs/solver.md#failed-linear-solves).
-    build(system, unknowns, true);
-    report = retried(report, run_snes(system, start));
-    report.structure_built = true;
-    report.direct_fallback = true;
-  } else if (!report.converged && starts_differ_) {
+  const bool retried_linear =
+      !report.converged && report.linear_failures > 0 && retry_linear_failure(system, unknowns, start, report);
+  if (!retried_linear && !report.converged && starts_differ_) {
     // Semismooth Newton can stall at a kink of the contact or plastic laws
     // from one start and not from another (a stiff block on a Coulomb
     // incline stalls at |F| = 5e-4 from the last acceleration, converges in
@@ -591,6 +590,7 @@ NewtonReport NewtonSolver<dim>::solve(MomentumSystem<dim>& system) {
     report.predictor_retry = true;
   }
   if (!report.converged && !system.rigid_bodies().empty()) report = retry_rigid(system, start, report);
+  if (report.converged && multigrid_pause_ > 0) --multigrid_pause_;
   return report;
 }
 

@@ -113,6 +113,8 @@ class MomentumSystem {
   }
   Vec time_error_weights() const;
   const ActiveSet<dim>& active() const { return active_; }
+  const Grid<dim>& grid() const { return grid_; }
+  int field_count() const { return fields_.field_count; }
   // The explicit step needs the stresses only: no tangents A_p (jacobian()
   // is then unavailable).
   void skip_tangents() { with_tangents_ = false; }

@@ -31,6 +31,7 @@
 #include <vector>
 
 #include "talus/solver/momentum_system.hpp"
+#include "talus/solver/multigrid.hpp"
 
 namespace talus {
 
@@ -46,6 +47,7 @@ struct NewtonReport {
   double tolerance = 0.0;              // the bound U was held to: max(balance_tolerance, min(fraction E, 1e-4))
   bool structure_built = false;        // matrix and KSP/PC built for this step (active set changed)
   bool direct_fallback = false;        // a linear solve failed and the step was solved again by LU
+  bool multigrid_fallback = false;     // ... above the LU's limit: solved again on geometric multigrid
   long linear_failures = 0;            // linear solves that did not converge (the step is judged on U alone)
   long factorizations = 0;             // numeric LU factorizations in this step (reused-factorization mode)
   long jacobian_matrices = 0;
@@ -154,6 +156,9 @@ class NewtonSolver {
   // 1e5-particle column) several, and a fallback step takes up to 25 of
   // them; in 3D the fill makes 5,000 the affordable size.
   static constexpr PetscInt default_direct_fallback_limit = dim == 2 ? 20000 : 5000;
+  // Coarsest level of the geometric multigrid, at most (-talus_mg_coarse_unknowns):
+  // its LU costs about what one smoothing sweep of the fine level does.
+  static constexpr PetscInt default_multigrid_coarse_unknowns = dim == 2 ? 4000 : 3000;
   long factorizations() const { return factorization_.factorizations; }  // since construction
   // The next step builds its structure anew (and factors its first
   // Jacobian): the grid was re-partitioned, or a checkpoint was written, from
@@ -187,7 +192,14 @@ class NewtonSolver {
   PC solving_pc() const;           // its preconditioner
   bool solves_by_lu() const;
   bool solves_by_factors() const;  // LU or incomplete LU: factors that can be kept (reused mode)
-  void build(MomentumSystem<dim>& system, PetscInt unknowns, bool direct);
+  bool solves_by_multigrid() const;  // PCMG on the active set's levels, kept like factors
+  void build_multigrid(const MomentumSystem<dim>& system);  // its levels, on the PCMG
+  static std::vector<PetscInt> contact_rows(const MomentumSystem<dim>& system);  // held out of the coarse levels
+  // The structure for the configured solver, or for a step solved again
+  // after a failed linear solve (docs/solver.md#failed-linear-solves).
+  enum class Fallback { none, direct, multigrid };
+  void build(MomentumSystem<dim>& system, PetscInt unknowns, Fallback fallback);
+  void configure_multigrid_fallback(const MomentumSystem<dim>& system);
   void destroy();
   bool same_unknowns(const MomentumSystem<dim>& system) const;
   // Newton's start (docs/solver.md#the-predictor): v^n + h g, v^n + h a_last,
@@ -199,6 +211,10 @@ class NewtonSolver {
   // A failed step with rigid bodies solved again: with the l2 line search,
   // then with a regularized Jacobian (newton_rigid_retry.cpp).
   NewtonReport retry_rigid(MomentumSystem<dim>& system, Start start, NewtonReport report);
+  // A step whose linear solves failed, solved again by LU or on geometric
+  // multigrid (newton_fallbacks.cpp, docs/solver.md#failed-linear-solves);
+  // false if neither was tried.
+  bool retry_linear_failure(MomentumSystem<dim>& system, PetscInt unknowns, Start start, NewtonReport& report);
 
   MPI_Comm comm_;
   PetscInt direct_limit_;
@@ -220,12 +236,18 @@ class NewtonSolver {
   Mat J_operator_ = nullptr;  // MATSHELL over MomentumSystem::apply_jacobian, or none
   std::string jacobian_choice_;  // -talus_jacobian: auto, matrix or operator
   Vec F_ = nullptr;
-  bool forced_direct_ = false;          // the current structure was built for an LU retry
+  bool fallback_structure_ = false;     // the current structure was built for a retry (LU or multigrid)
+  bool multigrid_fallback_ = true;      // -talus_multigrid_fallback
+  int multigrid_pause_ = 0;             // converged steps before the multigrid retry is tried again
   std::vector<int> unknown_points_;     // the active set the structure was built for (this rank)
   PetscInt unknown_count_ = -1;         // global
   long linear_failures_ = 0;            // of the current SNESSolve
   Factorization factorization_;
   CallbackContext context_;
+  // -talus_pc_type mg: the levels of the active set (docs/solver.md#geometric-multigrid).
+  GeometricMultigrid<dim> multigrid_;
+  PetscInt multigrid_coarse_unknowns_ = 0;  // -talus_mg_coarse_unknowns
+  std::vector<PetscInt> multigrid_held_;     // the contact rows its levels were built for
 };
 
 }  // namespace talus
