@@ -397,9 +397,7 @@ bool NewtonSolver<dim>::solves_by_factors() const {
 
 template <int dim>
 bool NewtonSolver<dim>::solves_by_lu() const {
-  PetscBool lu = PETSC_FALSE;
-  TALUS_PETSC(PetscObjectTypeCompare(reinterpret_cast<PetscObject>(solving_pc()), PCLU, &lu));
-  return lu;
+  return solving_pc_is(PCLU);
 }
 
 template <int dim>

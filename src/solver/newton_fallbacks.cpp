@@ -12,10 +12,15 @@
 namespace talus {
 
 template <int dim>
+bool NewtonSolver<dim>::solving_pc_is(PCType type) const {
+  PetscBool same = PETSC_FALSE;
+  TALUS_PETSC(PetscObjectTypeCompare(reinterpret_cast<PetscObject>(solving_pc()), type, &same));
+  return same;
+}
+
+template <int dim>
 bool NewtonSolver<dim>::solves_by_multigrid() const {
-  PetscBool mg = PETSC_FALSE;
-  TALUS_PETSC(PetscObjectTypeCompare(reinterpret_cast<PetscObject>(solving_pc()), PCMG, &mg));
-  return mg;
+  return solving_pc_is(PCMG);
 }
 
 template <int dim>

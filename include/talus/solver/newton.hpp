@@ -190,6 +190,7 @@ class NewtonSolver {
   MatType matrix_type() const;     // for the preconditioner configure() set up
   SNES solving_snes() const;       // the SNES whose KSP solves the linear systems (inner Newton, if any)
   PC solving_pc() const;           // its preconditioner
+  bool solving_pc_is(PCType type) const;
   bool solves_by_lu() const;
   bool solves_by_factors() const;  // LU or incomplete LU: factors that can be kept (reused mode)
   bool solves_by_multigrid() const;  // PCMG on the active set's levels, kept like factors
