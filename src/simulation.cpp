@@ -271,6 +271,11 @@ StepReport Simulation<dim>::advance(double h) {
     report.ghost_cells = ghost->global_cells();
   }
   if (active.global_count() > 0) {
+    // How static the step is for the linear solver: the cells a P-wave
+    // crosses in it (docs/solver.md#geometric-multigrid).
+    double speed = 0.0;
+    for (const Material* m : materials_) speed = std::max(speed, std::sqrt(m->elastic_stiffness()(0, 0) / m->density()));
+    newton_->set_wave_cells(h * speed / grid_->cell_size());
     report.newton = newton_->solve(system);
   } else {
     report.newton.converged = true;

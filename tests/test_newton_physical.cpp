@@ -191,6 +191,14 @@ TEST_CASE("above the LU fallback's limit a failed linear solve is solved again o
   CHECK_FALSE(r.newton.direct_fallback);
   CHECK(r.newton.linear_failures == 0);  // the retry's own solves all converged
   CHECK(max_relative_difference(testing::gather_by_id(sim.particles(), field::stress, 6), lu) < 1e-6);
+  // A dynamic step (1 ms: a P-wave, 82 m/s, crosses 1.6 cells of 0.05 m,
+  // below NewtonSolver::quasi_static_wave_cells) is cut back instead: there
+  // the failures are not the static modes the multigrid reaches.
+  Simulation<2> dynamic(testing::case_from_yaml(column_case(2.0, 0.05, 1e-3, "")), PETSC_COMM_SELF);
+  const StepReport d = dynamic.advance(1e-3);
+  CHECK_FALSE(d.converged);
+  CHECK_FALSE(d.newton.multigrid_fallback);
+  CHECK(d.newton.linear_failures > 0);
 }
 
 TEST_CASE("the matrix and preconditioner are built once while the active set holds", "[solver][reuse][mpi]") {

@@ -73,11 +73,14 @@ void NewtonSolver<dim>::configure_multigrid_fallback(const MomentumSystem<dim>& 
 // A step whose linear solves failed (docs/solver.md#failed-linear-solves):
 // solved again from the same start by Newton with LU up to
 // -talus_direct_fallback_limit unknowns, whose LU costs less than the
-// cut-back that follows a failed step; above it on the geometric multigrid,
-// which solves the quasi-static systems the incomplete factors cannot. Where
-// it fails too (the yielding systems of a dynamic collapse, which neither
-// preconditioner solves), it is not tried again for `pause` converged steps:
-// on the 51,200-particle column all 5 retries failed and cost 15 % more CPU.
+// cut-back that follows a failed step; above it, in a quasi-static step (a
+// P-wave crosses at least quasi_static_wave_cells cells), on the geometric
+// multigrid, which solves the static systems the incomplete factors cannot.
+// In dynamic steps the failures are the yielding systems, which neither
+// preconditioner solves: there the retries cost 8-15 % more CPU on the
+// 51,200-particle column (24 cells per step) and 12 % on the 3D landslide at
+// cell 0.075 m (7 cells). Where a retry fails it is not tried again for
+// `pause` converged steps.
 template <int dim>
 bool NewtonSolver<dim>::retry_linear_failure(MomentumSystem<dim>& system, PetscInt unknowns, Start start,
                                              NewtonReport& report) {
@@ -88,7 +91,8 @@ bool NewtonSolver<dim>::retry_linear_failure(MomentumSystem<dim>& system, PetscI
     report = retried(report, run_snes(system, start));
     report.structure_built = true;
     report.direct_fallback = true;
-  } else if (multigrid_fallback_ && multigrid_pause_ == 0 && !solves_by_multigrid()) {
+  } else if (multigrid_fallback_ && multigrid_pause_ == 0 && wave_cells_ >= quasi_static_wave_cells &&
+             !solves_by_multigrid()) {
     build(system, unknowns, Fallback::multigrid);
     report = retried(report, run_snes(system, start));
     report.structure_built = true;

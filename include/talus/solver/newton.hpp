@@ -164,6 +164,12 @@ class NewtonSolver {
   // Jacobian): the grid was re-partitioned, or a checkpoint was written, from
   // which a restarted run starts with a new solver.
   void rebuild_next_step() { stale_structure_ = true; }
+  // The cells a P-wave crosses in the coming step, h c_p / cell. Above
+  // quasi_static_wave_cells the step is static for the linear solver: a
+  // failed linear solve above the LU fallback's limit is solved again on
+  // geometric multigrid (docs/solver.md#geometric-multigrid).
+  void set_wave_cells(double cells) { wave_cells_ = cells; }
+  static constexpr double quasi_static_wave_cells = 100.0;
 
   // What the SNES callbacks see.
   struct CallbackContext {
@@ -240,6 +246,7 @@ class NewtonSolver {
   bool fallback_structure_ = false;     // the current structure was built for a retry (LU or multigrid)
   bool multigrid_fallback_ = true;      // -talus_multigrid_fallback
   int multigrid_pause_ = 0;             // converged steps before the multigrid retry is tried again
+  double wave_cells_ = 1e300;           // set_wave_cells (unknown: static)
   std::vector<int> unknown_points_;     // the active set the structure was built for (this rank)
   PetscInt unknown_count_ = -1;         // global
   long linear_failures_ = 0;            // of the current SNESSolve
