@@ -173,6 +173,13 @@ refused "-talus_snes_monitr -talus_snes_converged_reason" \
 refused "-talus_ksp_monitr -talus_snes_monitr" "PETSc options -talus_ksp_monitr, -talus_snes_monitr: read by no"
 refused "-talus_snes_monitor -talus_ksp_norm_type bogus" \
   "PETSc option -talus_ksp_norm_type bogus: PETSc does not accept it (Unknown option bogus"
+# Debian's SuperLU has no MC64: its incomplete LU would abort the process
+# when it permutes rows (talus then sets NOROWPERM, and refuses MC64 by name);
+# its own options are read when it factors, and are no misspelling.
+refused "-talus_pc_factor_mat_solver_type superlu -talus_mat_superlu_rowperm LargeDiag_MC64" \
+  "PETSc option -talus_mat_superlu_rowperm: 'LargeDiag_MC64' needs MC64"
+"$talus" check bad_option.yaml -talus_pc_factor_mat_solver_type superlu -talus_mat_superlu_ilu_droptol 1e-4 > good.log 2>&1 ||
+  { echo "FAIL: SuperLU's incomplete LU options refused"; cat good.log; exit 1; }
 "$talus" check bad_option.yaml -talus_snes_monitor -talus_pc_type gamg -talus_pc_gamg_threshold 0.01 \
   -talus_mat_type baij -talus_newton_predictor gravity > good.log 2>&1 ||
   { echo "FAIL: valid solver options refused"; cat good.log; exit 1; }

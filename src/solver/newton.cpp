@@ -293,6 +293,7 @@ void NewtonSolver<dim>::configure(PetscInt unknowns) {
     TALUS_PETSC(PCSetType(pc, PCGAMG));
   }
   TALUS_PETSC(SNESSetFromOptions(snes_));
+  guard_superlu_ilu(pc);
   {
     // Right preconditioning is talus's choice for GMRES; a Krylov method
     // asked for by option that has no right-preconditioned form (CG, MINRES,
@@ -355,10 +356,10 @@ MatType NewtonSolver<dim>::matrix_type() const {
   PC pc = solving_pc();
   if (!solves_by_factors()) return MATAIJ;
   // Incomplete LU (also in block Jacobi's blocks) is PETSc's own, with block
-  // kernels on BAIJ.
-  if (!solves_by_lu()) return MATBAIJ;
+  // kernels on BAIJ, unless another package is named (SuperLU's ILUTP).
   MatSolverType package = nullptr;
-  TALUS_PETSC(PCFactorGetMatSolverType(pc, &package));
+  if (!solving_pc_is(PCBJACOBI)) TALUS_PETSC(PCFactorGetMatSolverType(pc, &package));
+  if (!solves_by_lu()) return package == nullptr || std::strcmp(package, MATSOLVERPETSC) == 0 ? MATBAIJ : MATAIJ;
   // No package named (an LU forced above the direct limit): PETSc picks one
   // when it factors, so stay with AIJ, which every package takes.
   const bool blocks =

@@ -14,6 +14,10 @@ PetscInt count_option(const char* name, PetscInt fallback);
 double real_option(const char* name, double fallback, double lower, double upper);
 // One of `choices`, the first when not given.
 std::string choice_option(const char* name, const std::vector<std::string>& choices);
+// SuperLU's incomplete LU (-talus_pc_factor_mat_solver_type superlu under
+// ILU) on a PETSc whose SuperLU lacks MC64 (Debian's) aborts the process
+// when it permutes rows: default to NOROWPERM, and refuse MC64 by name.
+void guard_superlu_ilu(PC pc);
 // Newton with a line search of `line_search_type`, at most max_it
 // iterations, no PETSc tolerance (talus's own convergence test decides).
 void set_newton(SNES snes, PetscInt max_it, SNESLineSearchType line_search_type);

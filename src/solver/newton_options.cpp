@@ -41,10 +41,11 @@ std::vector<std::pair<std::string, std::string>> unread_talus_options() {
 // Read by PETSc only when the solver is set up on a matrix, when it solves
 // or when it is needed: the sub-solvers of block Jacobi, ASM and multigrid,
 // field splits, the viewers and reasons printed after a solve, the Jacobian
-// test, the LU fallback after a failed linear solve (NewtonSolver::solve).
+// test, the LU fallback after a failed linear solve (NewtonSolver::solve),
+// the factorization packages' own options (read when they factor).
 bool read_at_setup(const std::string& name) {
   for (const char* part : {"sub_", "mg_levels_", "mg_coarse_", "fieldsplit_", "talus_fallback_", "view",
-                           "converged_reason", "test_"})
+                           "converged_reason", "test_", "mat_mumps_", "mat_superlu_", "mat_umfpack_", "mat_klu_"})
     if (name.find(part) != std::string::npos) return true;
   return false;
 }
@@ -129,6 +130,20 @@ bool option_text(const char* name, char (&text)[64]) {
 }
 
 }  // namespace
+
+void guard_superlu_ilu(PC pc) {
+  PetscBool ilu = PETSC_FALSE;
+  TALUS_PETSC(PetscObjectTypeCompare(reinterpret_cast<PetscObject>(pc), PCILU, &ilu));
+  MatSolverType package = nullptr;
+  if (ilu) TALUS_PETSC(PCFactorGetMatSolverType(pc, &package));
+  if (!package || std::strcmp(package, MATSOLVERSUPERLU) != 0) return;
+  char text[64] = "";
+  if (!option_text("mat_superlu_rowperm", text))
+    TALUS_PETSC(PetscOptionsSetValue(nullptr, "-talus_mat_superlu_rowperm", "NOROWPERM"));
+  else if (std::strcmp(text, "NOROWPERM") != 0)
+    throw InputError("PETSc option -talus_mat_superlu_rowperm: '" + std::string(text) +
+                     "' needs MC64, which this SuperLU does not have; its incomplete LU takes NOROWPERM only");
+}
 
 PetscInt count_option(const char* name, PetscInt fallback) {
   char text[64] = "";
