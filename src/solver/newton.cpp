@@ -265,14 +265,7 @@ void NewtonSolver<dim>::configure(PetscInt unknowns) {
       TALUS_PETSC(PCFactorSetLevels(pc, levels));
     } else {
       TALUS_PETSC(PCSetType(pc, PCBJACOBI));
-      // The blocks' own PCs exist only after set-up: their default goes in
-      // the options database, unless given there already or another PC is
-      // asked for (the option would then stay unused, see -options_left).
-      PetscBool given = PETSC_FALSE, other_pc = PETSC_FALSE;
-      TALUS_PETSC(PetscOptionsHasName(nullptr, "talus_", "-sub_pc_factor_levels", &given));
-      TALUS_PETSC(PetscOptionsHasName(nullptr, "talus_", "-pc_type", &other_pc));
-      if (!given && !other_pc)
-        TALUS_PETSC(PetscOptionsSetValue(nullptr, "-talus_sub_pc_factor_levels", std::to_string(levels).c_str()));
+      default_block_option("sub_pc_factor_levels", std::to_string(levels));
     }
     TALUS_PETSC(KSPSetType(ksp, KSPGMRES));
     TALUS_PETSC(KSPSetPCSide(ksp, PC_RIGHT));

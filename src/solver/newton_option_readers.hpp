@@ -14,6 +14,10 @@ PetscInt count_option(const char* name, PetscInt fallback);
 double real_option(const char* name, double fallback, double lower, double upper);
 // One of `choices`, the first when not given.
 std::string choice_option(const char* name, const std::vector<std::string>& choices);
+// The default of an option of block Jacobi's blocks (-talus_<name>), whose
+// PCs exist only after set-up: put in the options database, unless given
+// there already or another PC is asked for (it would then stay unused).
+void default_block_option(const char* name, const std::string& value);
 // SuperLU's incomplete LU (-talus_pc_factor_mat_solver_type superlu under
 // ILU) on a PETSc whose SuperLU lacks MC64 (Debian's) aborts the process
 // when it permutes rows: default to NOROWPERM, and refuse MC64 by name.

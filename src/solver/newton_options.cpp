@@ -131,6 +131,13 @@ bool option_text(const char* name, char (&text)[64]) {
 
 }  // namespace
 
+void default_block_option(const char* name, const std::string& value) {
+  PetscBool given = PETSC_FALSE, other_pc = PETSC_FALSE;
+  TALUS_PETSC(PetscOptionsHasName(nullptr, "talus_", ("-" + std::string(name)).c_str(), &given));
+  TALUS_PETSC(PetscOptionsHasName(nullptr, "talus_", "-pc_type", &other_pc));
+  if (!given && !other_pc) TALUS_PETSC(PetscOptionsSetValue(nullptr, ("-talus_" + std::string(name)).c_str(), value.c_str()));
+}
+
 void guard_superlu_ilu(PC pc) {
   PetscBool ilu = PETSC_FALSE;
   TALUS_PETSC(PetscObjectTypeCompare(reinterpret_cast<PetscObject>(pc), PCILU, &ilu));
