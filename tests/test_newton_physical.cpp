@@ -170,6 +170,29 @@ TEST_CASE("geometric multigrid: quasi-static steps give the LU stresses, in as m
   CHECK(per_newton[1] < 8.0);
 }
 
+TEST_CASE("quasi-static steps above the LU fallback's limit start on the multigrid", "[solver][multigrid]") {
+  // The column at cell 0.0125 m (26,568 unknowns, above the 20,000 of the
+  // LU fallback in 2D), steps of 10 s: a P-wave crosses 16,000 cells. The
+  // default starts on the multigrid and solves the step in a few Krylov
+  // iterations per Newton iteration; the incomplete factors alone
+  // (-talus_multigrid_fallback no) fail it.
+  const std::string yaml = column_case(2.0, 0.0125, 10.0, "");
+  {
+    Simulation<2> sim(testing::case_from_yaml(yaml), PETSC_COMM_SELF);
+    const StepReport r = sim.advance(10.0);
+    REQUIRE(r.converged);
+    CHECK_FALSE(r.newton.multigrid_fallback);
+    CHECK_FALSE(r.newton.direct_fallback);
+    // Measured 11 Krylov iterations over 4 Newton iterations.
+    CHECK(r.newton.linear_iterations < 8 * r.newton.iterations);
+  }
+  const testing::ScopedOption off("-talus_multigrid_fallback", "no");
+  Simulation<2> sim(testing::case_from_yaml(yaml), PETSC_COMM_SELF);
+  const StepReport r = sim.advance(10.0);
+  CHECK_FALSE(r.converged);
+  CHECK(r.newton.linear_failures > 0);
+}
+
 TEST_CASE("above the LU fallback's limit a failed linear solve is solved again on multigrid", "[solver][multigrid]") {
   // Unpreconditioned GMRES limited to 2 iterations fails the quasi-static
   // column's solves; with the LU fallback limited to 10 unknowns the step is

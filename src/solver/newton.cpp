@@ -260,7 +260,9 @@ void NewtonSolver<dim>::configure(PetscInt unknowns) {
     // -talus_ilu_fill_limit unknowns too (default_ilu_fill_limit).
     const bool point_2d = dim == 2 && quadrature_ == ParticleQuadrature::point && unknowns <= ilu_fill_limit_;
     const PetscInt levels = point_2d || velocity_fields_ > 1 ? 1 : 0;
-    if (size == 1) {
+    if (starts_on_multigrid(unknowns)) {  // quasi-static, above the LU fallback (docs/solver.md#geometric-multigrid)
+      TALUS_PETSC(PCSetType(pc, PCMG));
+    } else if (size == 1) {
       TALUS_PETSC(PCSetType(pc, PCILU));
       TALUS_PETSC(PCFactorSetLevels(pc, levels));
     } else {
@@ -402,8 +404,10 @@ bool NewtonSolver<dim>::same_unknowns(const MomentumSystem<dim>& system) const {
   // active set on every rank means an identical system structure.
   // Rigid bodies' rows couple with contact points that change with the same
   // active set: their systems are always built anew.
-  int same = snes_ && reuse_ && !fallback_structure_ && !stale_structure_ && unknown_count_ == system.active().global_count() &&
+  const PetscInt count = system.active().global_count();
+  int same = snes_ && reuse_ && !fallback_structure_ && !stale_structure_ && unknown_count_ == count &&
              unknown_points_ == system.active().owned_points() && system.rigid_bodies().empty() &&
+             built_on_multigrid_ == starts_on_multigrid(count * dim) &&
              (!solves_by_multigrid() || multigrid_held_ == contact_rows(system));
   int all = 0;
   MPI_Allreduce(&same, &all, 1, MPI_INT, MPI_MIN, comm_);
@@ -419,6 +423,7 @@ void NewtonSolver<dim>::build(MomentumSystem<dim>& system, PetscInt unknowns, Fa
   // e.g. GAMG's coarse solver).
   TALUS_PETSC(SNESCreate(comm_, &snes_));
   fallback_structure_ = fallback != Fallback::none;
+  built_on_multigrid_ = starts_on_multigrid(unknowns);
   factorization_.reused_mode = false;
   factorization_.refactor = true;
   if (fallback == Fallback::multigrid) {

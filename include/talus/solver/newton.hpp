@@ -168,8 +168,14 @@ class NewtonSolver {
   // quasi_static_wave_cells the step is static for the linear solver: a
   // failed linear solve above the LU fallback's limit is solved again on
   // geometric multigrid (docs/solver.md#geometric-multigrid).
+  // Such a step above that limit starts on the multigrid (the static
+  // systems defeat the incomplete factors; -talus_multigrid_fallback no: it
+  // does not, and is cut back when they fail).
   void set_wave_cells(double cells) { wave_cells_ = cells; }
   static constexpr double quasi_static_wave_cells = 100.0;
+  bool starts_on_multigrid(PetscInt unknowns) const {
+    return multigrid_fallback_ && wave_cells_ >= quasi_static_wave_cells && unknowns > fallback_limit_;
+  }
 
   // What the SNES callbacks see.
   struct CallbackContext {
@@ -247,6 +253,7 @@ class NewtonSolver {
   bool multigrid_fallback_ = true;      // -talus_multigrid_fallback
   int multigrid_pause_ = 0;             // converged steps before the multigrid retry is tried again
   double wave_cells_ = 1e300;           // set_wave_cells (unknown: static)
+  bool built_on_multigrid_ = false;     // the structure was built for starts_on_multigrid
   std::vector<int> unknown_points_;     // the active set the structure was built for (this rank)
   PetscInt unknown_count_ = -1;         // global
   long linear_failures_ = 0;            // of the current SNESSolve
