@@ -269,22 +269,10 @@ void NewtonSolver<dim>::configure(PetscInt unknowns) {
       TALUS_PETSC(PCSetType(pc, PCBJACOBI));
       default_block_option("sub_pc_factor_levels", std::to_string(levels));
     }
-    TALUS_PETSC(KSPSetType(ksp, KSPGMRES));
-    TALUS_PETSC(KSPSetPCSide(ksp, PC_RIGHT));
-    TALUS_PETSC(KSPSetTolerances(ksp, 1e-8, PETSC_DEFAULT, PETSC_DEFAULT, 50));
-    // Inexact Newton (Eisenstat & Walker 1996, choice 2): the first solve of
-    // a step to 1e-8, so a linear step still takes one Newton iteration;
-    // later ones only as accurately as Newton is contracting,
-    //   eta_k = (||F_k|| / ||F_k-1||)^((1 + sqrt 5)/2),  at most 1e-2,
-    // so a line search that shortens the step to 10-50 % (large steps,
-    // docs/solver.md#large-steps) does not pay for a direction to 1e-8.
-    TALUS_PETSC(SNESKSPSetUseEW(snes_, PETSC_TRUE));
-    TALUS_PETSC(SNESKSPSetParametersEW(snes_, 2, 1e-8, 1e-2, PETSC_DEFAULT, PETSC_DEFAULT, PETSC_DEFAULT,
-                                       PETSC_DEFAULT));
+    set_right_gmres(ksp, 1e-8, 50);
+    set_inexact_newton(snes_);
   } else {
-    TALUS_PETSC(KSPSetType(ksp, KSPGMRES));
-    TALUS_PETSC(KSPSetPCSide(ksp, PC_RIGHT));
-    TALUS_PETSC(KSPSetTolerances(ksp, 1e-11, PETSC_DEFAULT, PETSC_DEFAULT, 500));
+    set_right_gmres(ksp, 1e-11, 500);
     TALUS_PETSC(PCSetType(pc, PCGAMG));
   }
   TALUS_PETSC(SNESSetFromOptions(snes_));
@@ -315,9 +303,7 @@ void NewtonSolver<dim>::configure(PetscInt unknowns) {
     PC inner_pc;
     TALUS_PETSC(SNESGetKSP(newton, &inner));
     TALUS_PETSC(KSPGetPC(inner, &inner_pc));
-    TALUS_PETSC(KSPSetType(inner, KSPGMRES));
-    TALUS_PETSC(KSPSetPCSide(inner, PC_RIGHT));
-    TALUS_PETSC(KSPSetTolerances(inner, 1e-5, PETSC_DEFAULT, PETSC_DEFAULT, 200));
+    set_right_gmres(inner, 1e-5, 200);
     int size = 1;
     MPI_Comm_size(comm_, &size);
     TALUS_PETSC(PCSetType(inner_pc, unknowns <= direct_limit_ ? (size > 1 ? PCBJACOBI : PCILU) : PCGAMG));

@@ -58,12 +58,8 @@ void NewtonSolver<dim>::configure_multigrid_fallback(const MomentumSystem<dim>& 
   PC pc;
   TALUS_PETSC(SNESGetKSP(snes_, &ksp));
   TALUS_PETSC(KSPGetPC(ksp, &pc));
-  TALUS_PETSC(KSPSetType(ksp, KSPGMRES));
-  TALUS_PETSC(KSPSetPCSide(ksp, PC_RIGHT));
-  TALUS_PETSC(KSPSetTolerances(ksp, 1e-8, PETSC_DEFAULT, PETSC_DEFAULT, 50));
-  TALUS_PETSC(SNESKSPSetUseEW(snes_, PETSC_TRUE));
-  TALUS_PETSC(SNESKSPSetParametersEW(snes_, 2, 1e-8, 1e-2, PETSC_DEFAULT, PETSC_DEFAULT, PETSC_DEFAULT,
-                                     PETSC_DEFAULT));
+  set_right_gmres(ksp, 1e-8, 50);
+  set_inexact_newton(snes_);
   TALUS_PETSC(PCSetType(pc, PCMG));
   TALUS_PETSC(SNESSetConvergenceTest(snes_, physical_convergence<dim>, &scale_, nullptr));
   factorization_.reused_mode = true;

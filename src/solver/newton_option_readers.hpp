@@ -22,6 +22,16 @@ void default_block_option(const char* name, const std::string& value);
 // ILU) on a PETSc whose SuperLU lacks MC64 (Debian's) aborts the process
 // when it permutes rows: default to NOROWPERM, and refuse MC64 by name.
 void guard_superlu_ilu(PC pc);
+// GMRES preconditioned on the right (its residual is the true one), to
+// relative tolerance `rtol` in at most `max_it` iterations.
+void set_right_gmres(KSP ksp, PetscReal rtol, PetscInt max_it);
+// Inexact Newton (Eisenstat & Walker 1996, choice 2): the first solve of a
+// step to 1e-8, so a linear step still takes one Newton iteration; later
+// ones only as accurately as Newton is contracting,
+//   eta_k = (||F_k|| / ||F_k-1||)^((1 + sqrt 5)/2),  at most 1e-2,
+// so a line search that shortens the step to 10-50 % (large steps,
+// docs/solver.md#large-steps) does not pay for a direction to 1e-8.
+void set_inexact_newton(SNES snes);
 // Newton with a line search of `line_search_type`, at most max_it
 // iterations, no PETSc tolerance (talus's own convergence test decides).
 void set_newton(SNES snes, PetscInt max_it, SNESLineSearchType line_search_type);

@@ -131,6 +131,17 @@ bool option_text(const char* name, char (&text)[64]) {
 
 }  // namespace
 
+void set_right_gmres(KSP ksp, PetscReal rtol, PetscInt max_it) {
+  TALUS_PETSC(KSPSetType(ksp, KSPGMRES));
+  TALUS_PETSC(KSPSetPCSide(ksp, PC_RIGHT));
+  TALUS_PETSC(KSPSetTolerances(ksp, rtol, PETSC_DEFAULT, PETSC_DEFAULT, max_it));
+}
+
+void set_inexact_newton(SNES snes) {
+  TALUS_PETSC(SNESKSPSetUseEW(snes, PETSC_TRUE));
+  TALUS_PETSC(SNESKSPSetParametersEW(snes, 2, 1e-8, 1e-2, PETSC_DEFAULT, PETSC_DEFAULT, PETSC_DEFAULT, PETSC_DEFAULT));
+}
+
 void default_block_option(const char* name, const std::string& value) {
   PetscBool given = PETSC_FALSE, other_pc = PETSC_FALSE;
   TALUS_PETSC(PetscOptionsHasName(nullptr, "talus_", ("-" + std::string(name)).c_str(), &given));
