@@ -76,6 +76,7 @@ Simulation<dim>::Simulation(const CaseConfig& config, MPI_Comm comm) : config_(c
   for (const auto& m : config.materials) materials_.push_back(m.law.get());
   // C^-1 of each material, for the energy balance's elastic energy (docs/energy.md).
   for (const Material* m : materials_) compliance_.push_back(m->elastic_stiffness().inverse());
+  for (const Material* m : materials_) p_wave_speed_ = std::max(p_wave_speed_, p_wave_speed(*m));
   for (const ObstacleConfig& o : config.obstacles) obstacles_.emplace_back(o);
   // A frictional face is a rigid half-plane on the face, its solid outside the grid.
   for (int f = 0; f < 2 * dim; ++f)
@@ -273,9 +274,7 @@ StepReport Simulation<dim>::advance(double h) {
   if (active.global_count() > 0) {
     // How static the step is for the linear solver: the cells a P-wave
     // crosses in it (docs/solver.md#geometric-multigrid).
-    double speed = 0.0;
-    for (const Material* m : materials_) speed = std::max(speed, std::sqrt(m->elastic_stiffness()(0, 0) / m->density()));
-    newton_->set_wave_cells(h * speed / grid_->cell_size());
+    newton_->set_wave_cells(h * p_wave_speed_ / grid_->cell_size());
     report.newton = newton_->solve(system);
   } else {
     report.newton.converged = true;

@@ -248,6 +248,7 @@ class Simulation {
   PointCloud grid_points_;
   Vector<dim> gravity_;
   double mass_threshold_ = 0;
+  double p_wave_speed_ = 0;  // the fastest of the materials' (p_wave_speed)
   double time_ = 0;
   std::unique_ptr<RunState> resume_;  // set by restart()
   // The Newton predictor (GridFields::last_acceleration): the last accepted

@@ -426,7 +426,7 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
     YamlSection t = root.section("time");
     double speed = 0.0;
     for (const MaterialConfig& m : c.materials)
-      speed = std::max(speed, std::sqrt(m.law->elastic_stiffness()(0, 0) / m.law->density()));
+      speed = std::max(speed, p_wave_speed(*m.law));
     const double limit = explicit_stable_step(c.grid.shape, c.grid.cell_size, speed, c.dim);
     if (c.time.step == 0.0) {
       c.time.step = c.time.cfl * limit;

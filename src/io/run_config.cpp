@@ -28,7 +28,7 @@ void parse_equilibrium(YamlSection& e, CaseConfig& c) {
   // further step removes the same factor of what is left.
   double slowest = std::numeric_limits<double>::infinity();
   for (const MaterialConfig& m : c.materials)
-    slowest = std::min(slowest, std::sqrt(m.law->elastic_stiffness()(0, 0) / m.law->density()));
+    slowest = std::min(slowest, p_wave_speed(*m.law));
   double extent = 0.0;
   for (int a = 0; a < c.dim; ++a) extent = std::max(extent, c.grid.upper[a] - c.grid.lower[a]);
   q.step = e.has("step") ? e.positive("step", e.real("step")) : 10.0 * extent / slowest;

@@ -258,6 +258,9 @@ void GeometricMultigrid<dim>::build(const Grid<dim>& grid, const ActiveSet<dim>&
     TALUS_PETSC(PetscSFBcastBegin(sf, MPIU_INT, root.data(), leaf.data(), MPI_REPLACE));
     TALUS_PETSC(PetscSFBcastEnd(sf, MPIU_INT, root.data(), leaf.data(), MPI_REPLACE));
     TALUS_PETSC(PetscSFDestroy(&sf));
+    // A coarsening that keeps most unknowns (a body one or two cells thick
+    // along an axis) costs more than it removes: stop before it.
+    if (4 * global > 3 * fine_global) break;
     const PetscInt extra_first = global - extra_count;
     if (rank == size - 1)
       for (int e = 0; e < extra_count; ++e) coarse.push_back({{}, -1, e});
@@ -299,12 +302,6 @@ void GeometricMultigrid<dim>::build(const Grid<dim>& grid, const ActiveSet<dim>&
     }
     TALUS_PETSC(MatAssemblyBegin(P, MAT_FINAL_ASSEMBLY));
     TALUS_PETSC(MatAssemblyEnd(P, MAT_FINAL_ASSEMBLY));
-    // A coarsening that keeps most unknowns (a body one or two cells thick
-    // along an axis) costs more than it removes: stop before it.
-    if (4 * global > 3 * fine_global) {
-      TALUS_PETSC(MatDestroy(&P));
-      break;
-    }
     interpolation_.push_back(P);
     unknowns_.push_back(global);
     fine = std::move(coarse);

@@ -1,4 +1,5 @@
 #pragma once
+#include <cmath>
 // The constitutive interface: one material point, one time step.
 //
 // In: the objectively rotated stress at the start of the step sigma* (tension
@@ -46,6 +47,11 @@ class Material {
   // fingerprint compares, so that writing a default out is no change.
   virtual std::string parameters() const = 0;
 };
+
+// The speed of a P-wave in the law's elastic stiffness, sqrt(C_11 / rho)
+// (explicit step limit, docs/explicit.md#the-step; how static an implicit
+// step is, docs/solver.md#geometric-multigrid).
+inline double p_wave_speed(const Material& m) { return std::sqrt(m.elastic_stiffness()(0, 0) / m.density()); }
 
 // The built-in materials, by the key used in the case file's `model:`.
 std::unique_ptr<Material> make_material(const std::string& model, YamlSection& parameters);
