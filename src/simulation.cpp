@@ -321,6 +321,22 @@ StepReport Simulation<dim>::advance(double h) {
     return report;
   }
   {
+    // The step's motion must not invert a particle's neighbourhood:
+    // det(I + h grad v_theta) > 0, or F^{n+1} loses det F > 0. A step longer
+    // than the material's motion allows (a layer driven through a no-slip
+    // floor within one step) is cut back like one that Newton could not
+    // solve (docs/solver.md#inverting-steps).
+    const std::vector<char> rigid = rigid_particles(system);
+    const long local = count_inverting_particles(stencils, system.end_velocity(), system.start_velocity(), h, theta,
+                                                 rigid.empty() ? nullptr : &rigid);
+    MPI_Allreduce(&local, &report.inverting_particles, 1, MPI_LONG, MPI_SUM, comm_);
+    if (report.inverting_particles > 0) {
+      report.newton.reason = "the step inverts " + std::to_string(report.inverting_particles) +
+                             " particles, det(I + h grad v) <= 0";
+      return report;
+    }
+  }
+  {
     // The next step's predictor: this step's grid acceleration.
     const auto& v_end = system.end_velocity();
     const auto& v_start = system.start_velocity();
@@ -347,12 +363,7 @@ double Simulation<dim>::complete_step(const MomentumSystem<dim>& system, const s
   // 7. G2P: velocities, affine velocities, positions, deformation gradients.
   const auto t2 = std::chrono::steady_clock::now();
   // A rigid body's particles move with the body's motion, rotated exactly.
-  std::vector<char> rigid_particle;
-  if (!system.rigid_bodies().empty()) {
-    FieldView<PetscInt> body(particles_->swarm(), field::body_id);
-    rigid_particle.resize(particles_->local_count());
-    for (std::size_t p = 0; p < rigid_particle.size(); ++p) rigid_particle[p] = config_.bodies[body[p]].rigid;
-  }
+  const std::vector<char> rigid_particle = rigid_particles(system);
   grid_to_particles(*particles_, stencils, system.end_velocity(), system.start_velocity(), fields.velocity, h,
                     theta, config_.transfer, rigid_particle.empty() ? nullptr : &rigid_particle);
   move_rigid_particles(*particles_, system.rigid_bodies(), system.rigid_motion(), h);
@@ -362,6 +373,17 @@ double Simulation<dim>::complete_step(const MomentumSystem<dim>& system, const s
   particles_->migrate(*grid_);
   time_ += h;
   return seconds_since(t2);
+}
+
+// Per local particle: 1 if it belongs to a rigid body; empty without rigid bodies.
+template <int dim>
+std::vector<char> Simulation<dim>::rigid_particles(const MomentumSystem<dim>& system) const {
+  std::vector<char> rigid;
+  if (system.rigid_bodies().empty()) return rigid;
+  FieldView<PetscInt> body(particles_->swarm(), field::body_id);
+  rigid.resize(particles_->local_count());
+  for (std::size_t p = 0; p < rigid.size(); ++p) rigid[p] = config_.bodies[body[p]].rigid;
+  return rigid;
 }
 
 // 8. Commit the material state: sigma^{n+1} at the converged velocities.
@@ -391,16 +413,25 @@ void Simulation<dim>::check_finite() const {
   int bad = 0;
   {
     DM sw = particles_->swarm();
-    FieldView<PetscReal> x(sw, field::position), v(sw, field::velocity), s(sw, field::stress);
+    FieldView<PetscReal> x(sw, field::position), v(sw, field::velocity), s(sw, field::stress),
+        F(sw, field::deformation_gradient), J(sw, field::volume_ratio);
     for (PetscInt p = 0; p < n && !bad; ++p) {
       for (int a = 0; a < dim; ++a) bad |= !std::isfinite(x[dim * p + a]) || !std::isfinite(v[dim * p + a]);
       for (int i = 0; i < 6; ++i) bad |= !std::isfinite(s[6 * p + i]);
+      for (int i = 0; i < dim * dim; ++i) bad |= !std::isfinite(F[dim * dim * p + i]);
+      // An inverted particle (J <= 0): the implicit step cuts back before it
+      // happens; an explicit step that inverts one stops here.
+      if (!bad && !(J[p] > 0.0 && std::isfinite(J[p]))) bad = 2;
     }
   }
   int any = 0;
   MPI_Allreduce(&bad, &any, 1, MPI_INT, MPI_MAX, comm_);
-  if (any)
-    throw SimulationError("a particle position, velocity or stress is not finite after the step ending at t = " +
+  if (any == 1)
+    throw SimulationError("a particle position, velocity, stress or deformation gradient is not finite after the step "
+                          "ending at t = " +
+                          number_text(time_) + "; the run stops (the last output is the last good state)");
+  if (any == 2)
+    throw SimulationError("a particle is inverted (volume ratio J <= 0) after the step ending at t = " +
                           number_text(time_) + "; the run stops (the last output is the last good state)");
 }
 

@@ -350,10 +350,11 @@ RunSummary Simulation<dim>::run_steps(std::ostream* progress, const ProgressOpti
     summary.jacobian_matrices += r.newton.jacobian_matrices;
     if (!r.converged) {
       ++summary.cutbacks;
+      summary.inverting_cutbacks += r.inverting_particles > 0;
       const double h = control.failed(h_try);
       std::ostringstream m;
-      m << "  Newton failed (" << r.newton.reason << ") at t = " << time_ << " with h = " << h_try
-        << "; retrying with h = " << next_step().first;
+      m << "  " << (r.inverting_particles > 0 ? "step rejected" : "Newton failed") << " (" << r.newton.reason
+        << ") at t = " << time_ << " with h = " << h_try << "; retrying with h = " << next_step().first;
       log.message(m.str());
       if (h < tc.min_step_ratio * control.nominal())
         throw SimulationError("Newton did not converge at t = " + number_text(time_) +

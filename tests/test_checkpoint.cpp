@@ -69,7 +69,8 @@ void restart_repeats_the_run(const std::string& time, const std::string& label, 
   CHECK(second.time() == first.time());
   for (const auto& [name, block] : {std::pair{field::position, 2}, std::pair{field::velocity, 2},
                                     std::pair{field::stress, 6}, std::pair{field::affine_velocity, 4},
-                                    std::pair{field::material_state, 2}, std::pair{field::mass, 1}}) {
+                                    std::pair{field::material_state, 2}, std::pair{field::mass, 1},
+                                    std::pair{field::volume_ratio, 1}}) {
     const double d = max_relative_difference(testing::gather_by_id(first.particles(), name, block),
                                              testing::gather_by_id(second.particles(), name, block));
     INFO("after reading, " << name << ": largest difference " << d);
@@ -86,7 +87,7 @@ void restart_repeats_the_run(const std::string& time, const std::string& label, 
 
   for (const auto& [name, block] : {std::pair{field::position, 2}, std::pair{field::velocity, 2},
                                     std::pair{field::stress, 6}, std::pair{field::deformation_gradient, 4},
-                                    std::pair{field::cumulative_plastic_strain, 1},
+                                    std::pair{field::volume_ratio, 1}, std::pair{field::cumulative_plastic_strain, 1},
                                     std::pair{field::separation_strain, 1}, std::pair{field::affine_velocity, 4}}) {
     const double d = max_relative_difference(testing::gather_by_id(whole.particles(), name, block),
                                              testing::gather_by_id(second.particles(), name, block));
@@ -246,7 +247,7 @@ TEST_CASE("a checkpoint describes itself: units, stress component order, version
   const std::map<std::string, std::pair<std::string, int>> particles{
       {"position", {"m", 3}}, {"velocity", {"m/s", 3}}, {"affine_velocity", {"1/s", 9}},
       {"displacement", {"m", 3}}, {"mass", {"kg", 1}}, {"initial_volume", {"m^3", 1}},
-      {"deformation_gradient", {"1", 9}}, {"kirchhoff_stress", {"Pa", 6}}, {"material_state", {"1", 2}},
+      {"deformation_gradient", {"1", 9}}, {"volume_ratio", {"1", 1}}, {"kirchhoff_stress", {"Pa", 6}}, {"material_state", {"1", 2}},
       {"cumulative_plastic_strain", {"1", 1}}, {"separation_strain", {"1", 1}}, {"material_id", {"1", 1}},
       {"body_id", {"1", 1}}, {"particle_id", {"1", 1}}};
   for (const auto& [name, unit] : particles) {

@@ -134,13 +134,25 @@ TEST_CASE("a damaged checkpoint is refused with what is wrong with it", "[checkp
     restart_fails(damaged("mass2", [](hid_t f) { set_element(f, "mass", 2, 0, 1.0, H5T_NATIVE_DOUBLE); }),
                   invalid + "material_id of particle 2 (row 2): its mass 1 is not this case's density 2000");
   }
-  SECTION("a singular deformation gradient") {
+  SECTION("an inverted particle (volume ratio J = 0)") {
+    restart_fails(damaged("inverted", [](hid_t f) { set_element(f, "volume_ratio", 4, 0, 0.0, H5T_NATIVE_DOUBLE); }),
+                  invalid + "volume_ratio of particle 4 (row 4): 0 is not positive");
+  }
+  SECTION("a format-7 checkpoint (no volume ratio) with a singular deformation gradient") {
     restart_fails(damaged("singular",
                           [](hid_t f) {
+                            REQUIRE(H5Ldelete(f, "particles/volume_ratio", H5P_DEFAULT) >= 0);
+                            set_run_attribute(f, "checkpoint_format", 7, H5T_NATIVE_INT);
                             for (hsize_t c = 0; c < 4; ++c)
                               set_element(f, "deformation_gradient", 4, c, 0.0, H5T_NATIVE_DOUBLE);
                           }),
                   invalid + "deformation_gradient of particle 4 (row 4): det F = 0 is not positive");
+  }
+  SECTION("a format this talus does not read") {
+    const std::string path =
+        damaged("format6", [](hid_t f) { set_run_attribute(f, "checkpoint_format", 6, H5T_NATIVE_INT); });
+    Simulation<2> sim(testing::case_from_yaml(column()), PETSC_COMM_SELF);
+    CHECK_THROWS_WITH(sim.restart(path), Catch::Contains("checkpoint format 6, this talus reads formats 7 to 8"));
   }
   SECTION("a position outside the grid (was moved onto the grid's edge)") {
     restart_fails(damaged("outside", [](hid_t f) { set_element(f, "position", 0, 0, 10.0, H5T_NATIVE_DOUBLE); }),

@@ -73,7 +73,7 @@ void check_conservation(ShapeKind kind, TransferScheme scheme, double flip_blend
   {
     FieldView<PetscReal> m(particles.swarm(), field::mass), v(particles.swarm(), field::velocity),
         c(particles.swarm(), field::affine_velocity), x(particles.swarm(), field::position),
-        F(particles.swarm(), field::deformation_gradient);
+        F(particles.swarm(), field::deformation_gradient), J(particles.swarm(), field::volume_ratio);
     FieldView<std::int64_t> id(particles.swarm(), field::particle_id);
     for (PetscInt p = 0; p < particles.local_count(); ++p) {
       const long k = static_cast<long>(id[p]);
@@ -85,6 +85,7 @@ void check_conservation(ShapeKind kind, TransferScheme scheme, double flip_blend
       for (int a = 0; a < dim * dim; ++a) c[dim * dim * p + a] = 10.0 * hashed(k, 20 + a);
       // Deformed particles: domains of different sizes and shapes.
       for (int a = 0; a < dim * dim; ++a) F[dim * dim * p + a] += 0.4 * hashed(k, 40 + a);
+      J[p] = Eigen::Map<const Eigen::Matrix<double, dim, dim, Eigen::RowMajor>>(F.data() + dim * dim * p).determinant();
     }
   }
   particles.migrate(grid);
@@ -143,27 +144,112 @@ TEST_CASE("a particle's domain keeps its volume and follows its stretch", "[tran
   const double V0 = 0.008, R = 0.1;  // a cube of side 0.2
   Matrix<3> F = Matrix<3>::Zero();
   F.diagonal() << 0.95, 1.2, 0.7;
-  const Vector<3> stretched = domain_half_width<3>(V0, F);
+  const Vector<3> stretched = domain_half_width<3>(V0, F, F.determinant());
   for (int a = 0; a < 3; ++a) CHECK(stretched[a] == Approx(R * F(a, a)).epsilon(1e-14));
   const double c = std::cos(0.7), s = std::sin(0.7);
   Matrix<2> Q;
   Q << c, -s, s, c;
-  const Vector<2> rotated = domain_half_width<2>(0.04, Q);
+  const Vector<2> rotated = domain_half_width<2>(0.04, Q, Q.determinant());
   CHECK(rotated[0] == Approx(R).epsilon(1e-14));
   CHECK(rotated[1] == Approx(R).epsilon(1e-14));
   Matrix<3> G;
   G << 1.1, 0.3, -0.2, 0.05, 0.9, 0.4, 0.1, -0.3, 1.3;
-  const Vector<3> r = domain_half_width<3>(V0, G);
+  const Vector<3> r = domain_half_width<3>(V0, G, G.determinant());
   CHECK(8 * r.prod() == Approx(G.determinant() * V0).epsilon(1e-14));
   // The extents keep the ratios of the rows' lengths (the image of a ball's extents).
   CHECK(r[0] / r[2] == Approx(G.row(0).norm() / G.row(2).norm()).epsilon(1e-14));
   Matrix<2> flat;
   flat << 1.0, 2.0, 0.5, 1.0;
-  CHECK(domain_half_width<2>(0.04, flat).norm() == 0.0);
+  CHECK(domain_half_width<2>(0.04, flat, flat.determinant()).norm() == 0.0);
 }
 
 TEST_CASE("P2G/G2P conserve mass and momentum, linear hats", "[transfer][mpi]") {
   check_conservation<2>(ShapeKind::linear, TransferScheme::apic, 0.0);
   check_conservation<2>(ShapeKind::linear, TransferScheme::flip, 0.95);
   check_conservation<3>(ShapeKind::linear, TransferScheme::apic, 0.0);
+}
+
+namespace {
+
+// A step inverts a particle where det(I + h grad v_theta) <= 0. On a linear
+// grid velocity field v = G x (coefficients at the Greville points, which
+// both bases reproduce exactly) the gradient is G at every particle, so the
+// count is all particles or none, switching at the closed-form step where
+// det(I + h G) = 0, and G2P's F^{n+1} = (I + h G) F^n has det F <= 0 exactly
+// at the particles counted (and so has the volume ratio J it carries).
+template <int dim>
+void check_inverting_count(ShapeKind kind) {
+  Vector<dim> lo = Vector<dim>::Zero(), hi;
+  if constexpr (dim == 2) hi << 1.0, 0.8; else hi << 0.6, 0.5, 0.4;
+  Grid<dim> grid(PETSC_COMM_WORLD, lo, hi, 0.1, kind, ParticleQuadrature::point);
+  Particles<dim> particles(grid.comm());
+  BodyConfig bc;
+  bc.box_lower.assign(dim, 0.0);
+  bc.box_upper.assign(hi.data(), hi.data() + dim);
+  bc.particles_per_cell = 2;
+  bc.velocity.assign(dim, 0.0);
+  struct Dummy : Material {
+    const char* model() const override { return "dummy"; }
+    double density() const override { return 1500.0; }
+    void update(const Voigt&, const Voigt&, const double*, double*, MaterialPointUpdate&) const override {}
+    const Tangent& elastic_stiffness() const override { static Tangent t = Tangent::Identity(); return t; }
+    std::string parameters() const override { return "model: dummy"; }
+  } dummy;
+  seed_body<dim>(particles, grid, bc, dummy, 0, 0);
+  particles.migrate(grid);
+  std::vector<Stencil<dim>> stencils;
+  compute_stencils(grid, particles, stencils);
+  // G: a compression along the last axis (rate -100 1/s) with a shear; the
+  // start-of-step field v_old = G_old x stretches along the first axis.
+  Matrix<dim> G = Matrix<dim>::Zero(), G_old = Matrix<dim>::Zero();
+  G(dim - 1, dim - 1) = -100.0;
+  G(0, dim - 1) = 30.0;
+  G_old(0, 0) = 20.0;
+  std::vector<double> v_new(dim * grid.ghosted_count()), v_old(v_new.size());
+  for (int i = 0; i < grid.ghosted_count(); ++i) {
+    const Vector<dim> x = grid.point_position(grid.global_index(i));
+    Eigen::Map<Vector<dim>>(v_new.data() + dim * i) = G * x;
+    Eigen::Map<Vector<dim>>(v_old.data() + dim * i) = G_old * x;
+  }
+  const long n = particles.local_count();
+  long total = 0, local = n;
+  MPI_Allreduce(&local, &total, 1, MPI_LONG, MPI_SUM, grid.comm());
+  auto count = [&](double h, double theta, const std::vector<char>* skip = nullptr) {
+    long mine = count_inverting_particles(stencils, v_new, v_old, h, theta, skip), all = 0;
+    MPI_Allreduce(&mine, &all, 1, MPI_LONG, MPI_SUM, grid.comm());
+    return all;
+  };
+  // theta = 1: det(I + h G) = 1 - 100 h; zero at h = 0.01.
+  CHECK(count(0.0099, 1.0) == 0);
+  CHECK(count(0.0101, 1.0) == total);
+  // theta = 1/2: grad v_theta = (G + G_old)/2, det = (1 + 10 h)(1 - 50 h); zero at h = 0.02.
+  CHECK(count(0.0199, 0.5) == 0);
+  CHECK(count(0.0201, 0.5) == total);
+  // Skipped particles (a rigid body's) are not counted.
+  std::vector<char> skip(n, 0);
+  long skipped = 0;
+  for (long p = 0; p < n; p += 3) skip[p] = 1, ++skipped;
+  MPI_Allreduce(MPI_IN_PLACE, &skipped, 1, MPI_LONG, MPI_SUM, grid.comm());
+  CHECK(count(0.0101, 1.0, &skip) == total - skipped);
+  // G2P at h = 0.0101 leaves det F = 1 - 100 h = -0.01 at every particle.
+  TransferConfig transfer;
+  grid_to_particles(particles, stencils, v_new, v_old, v_old, 0.0101, 1.0, transfer);
+  // The volume ratio J, carried as the product of the steps' determinants, too.
+  FieldView<PetscReal> F(particles.swarm(), field::deformation_gradient), J(particles.swarm(), field::volume_ratio);
+  double worst = 0.0;
+  for (long p = 0; p < n; ++p) {
+    const double det = Eigen::Map<const Eigen::Matrix<double, dim, dim, Eigen::RowMajor>>(F.data() + dim * dim * p)
+                           .determinant();
+    worst = std::max({worst, std::abs(det - (1.0 - 100.0 * 0.0101)), std::abs(J[p] - (1.0 - 100.0 * 0.0101))});
+  }
+  // Gradients of O(100) summed over 9-27 functions: round-off ~1e-13 relative to h G.
+  CHECK(worst < 1e-12);
+}
+
+}  // namespace
+
+TEST_CASE("a step that would invert particles is counted", "[transfer][mpi]") {
+  check_inverting_count<2>(ShapeKind::quadratic_bspline);
+  check_inverting_count<3>(ShapeKind::quadratic_bspline);
+  check_inverting_count<2>(ShapeKind::linear);
 }

@@ -33,6 +33,9 @@ struct StepReport {
   // forces, the Jacobian matrices' assembly, the linear solves (with their
   // factorizations and, in 3D, the operator products, also given alone).
   double material_seconds = 0, assembly_seconds = 0, linear_seconds = 0, operator_seconds = 0;
+  // Global number of particles the converged step would invert, det(I + h grad v) <= 0
+  // (the step is then not accepted; docs/solver.md#inverting-steps).
+  long inverting_particles = 0;
 };
 
 // How a run ended: at time.end, on SIGINT/SIGTERM (after a step, with a
@@ -62,6 +65,7 @@ struct RunSummary {
   long structure_builds = 0;      // steps whose matrix and preconditioner structure was built anew
   long direct_fallbacks = 0;      // steps solved again by LU after a failed linear solve
   long multigrid_fallbacks = 0;   // ... above the LU's limit, solved again on geometric multigrid
+  long inverting_cutbacks = 0;    // cut-backs of converged steps that would invert a particle (docs/solver.md#inverting-steps)
   long factorizations = 0;        // numeric LU factorizations with reused factors (docs/solver.md#reused-factorizations)
   long jacobian_matrices = 0;     // Jacobian matrices assembled (docs/solver.md#the-jacobian-as-an-operator)
   // Balanced ranks (docs/parallel.md): grid re-partitions during the run, the
@@ -183,6 +187,7 @@ class Simulation {
   // along x (the run-out front), over all ranks; collective.
   std::pair<double, double> motion_extremes() const;
   void check_finite() const;
+  std::vector<char> rigid_particles(const MomentumSystem<dim>& system) const;
   void repartition(const Ownership<dim>& ownership);
   // last_acceleration_ to and from a checkpoint's rows (RunState).
   void store_last_acceleration(RunState& state) const;

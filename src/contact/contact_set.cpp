@@ -229,12 +229,11 @@ template <int dim>
 std::vector<double> volume_gradients(const Grid<dim>& grid, const Particles<dim>& particles,
                                    const std::vector<Stencil<dim>>& stencils, const GridFields<dim>& fields) {
   std::vector<double> mine(static_cast<std::size_t>(grid.ghosted_count()) * fields.field_count * dim, 0.0);
-  // The particle's current volume V0 det F.
-  FieldView<PetscReal> v0(particles.swarm(), field::initial_volume), F(particles.swarm(), field::deformation_gradient);
+  // The particle's current volume V0 J.
+  FieldView<PetscReal> v0(particles.swarm(), field::initial_volume), J(particles.swarm(), field::volume_ratio);
   for (std::size_t p = 0; p < stencils.size(); ++p) {
     const Stencil<dim>& st = stencils[p];
-    const double m =
-        v0[p] * Eigen::Map<const Eigen::Matrix<double, dim, dim, Eigen::RowMajor>>(F.data() + dim * dim * p).determinant();
+    const double m = v0[p] * J[p];
     for (int k = 0; k < st.count; ++k)
       for (int c = 0; c < dim; ++c) mine[static_cast<std::size_t>(dim) * st.local[k] + c] += m * st.gradient[k][c];
   }

@@ -33,6 +33,7 @@ std::vector<FieldSpec> checkpoint_fields() {
           {field::mass, "mass", 1, Kind::real},
           {field::initial_volume, "initial_volume", 1, Kind::real},
           {field::deformation_gradient, "deformation_gradient", dim * dim, Kind::real},
+          {field::volume_ratio, "volume_ratio", 1, Kind::real},
           {field::stress, "kirchhoff_stress", 6, Kind::real},
           {field::material_state, "material_state", max_state_size, Kind::real},
           {field::cumulative_plastic_strain, "cumulative_plastic_strain", 1, Kind::real},
@@ -146,9 +147,12 @@ inline Description describe_field(const std::string& name) {
     return {dim == 2 ? "m^2" : "m^3", "", "particle volume at seeding" + per_thickness};
   if (name == "deformation_gradient")
     return {"1", row_major_names(dim), "deformation gradient F, F_ab = dx_a/dX_b, row-major"};
+  if (name == "volume_ratio")
+    return {"1", "", "J = V / V0, the product of det(I + h grad v) over the steps (the volume; det F from F's entries "
+                     "loses its digits once a long stretch makes F ill-conditioned)"};
   if (name == "kirchhoff_stress")
     return {"Pa", voigt_names(),
-            "Kirchhoff stress tau = det(F) sigma, tension positive, Voigt order (not ParaView's xx yy zz xy yz xz "
+            "Kirchhoff stress tau = J sigma, tension positive, Voigt order (not ParaView's xx yy zz xy yz xz "
             "of the .vtu files); in 2D plane strain zz is the out-of-plane stress and yz = xz = 0"};
   if (name == "material_state")
     return {"1", "", "internal variables of the material: drucker_prager column 0 the hardening variable alpha; "
@@ -167,8 +171,10 @@ inline Description describe_field(const std::string& name) {
 // 4: the energy balance; 5: materials fingerprinted from their parsed
 // parameters (2026-11-25); 6: /obstacles (the obstacle loads) and the
 // self-describing attributes (units, component order, case file); 7: the
-// output directory (restart branches).
-constexpr int checkpoint_format = 7;
+// output directory (restart branches); 8: the volume ratio J (2026-11-27;
+// format 7 is still read, with J = det F).
+constexpr int checkpoint_format = 8;
+constexpr int oldest_checkpoint_format = 7;
 
 // A damaged checkpoint: what is wrong with it, for "not a valid talus checkpoint: <what>".
 struct Damaged : std::runtime_error {

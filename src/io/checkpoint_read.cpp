@@ -46,10 +46,11 @@ RunState read_state(const std::string& path, hid_t file_id, int dim) {
     throw InputError(path + ": a checkpoint written by a talus before 2026-11-25, without the case fingerprint "
                             "that a restart checks; run the case again from t = 0");
   const int format = read_attribute<int>(run.id, "checkpoint_format", H5T_NATIVE_INT);
-  if (format != checkpoint_format)
-    throw InputError(path + ": checkpoint format " + std::to_string(format) + ", this talus reads format " +
-                     std::to_string(checkpoint_format));
+  if (format < oldest_checkpoint_format || format > checkpoint_format)
+    throw InputError(path + ": checkpoint format " + std::to_string(format) + ", this talus reads formats " +
+                     std::to_string(oldest_checkpoint_format) + " to " + std::to_string(checkpoint_format));
   RunState state;
+  state.format = format;
   state.talus_version = read_text_attribute(run.id, "talus_version");
   for (const char* section : {"grid", "gravity", "materials", "bodies", "boundaries", "obstacles", "contact", "transfer"})
     state.fingerprint.emplace_back(section, read_text_attribute(run.id, (std::string("case_") + section).c_str()));
@@ -129,10 +130,12 @@ auto as_input_error(const std::string& path, F&& body) {
 // Checks the datasets of all particles (every rank holds them all, so every
 // rank reaches the same verdict): finite values, positive masses and volumes,
 // masses that match this case's densities, indices in range, unique ids,
-// deformation gradients with a positive determinant, positions in the grid.
+// positive volume ratios (format 7, which has none: deformation gradients with
+// a positive determinant), positions in the grid.
 template <int dim>
 void check_particles(const FieldSpec& f, const char* data, std::size_t count, const CheckpointExpectations& expected,
-                     std::vector<double>& mass, std::vector<double>& volume, std::vector<PetscInt>& material) {
+                     int format, std::vector<double>& mass, std::vector<double>& volume,
+                     std::vector<PetscInt>& material) {
   const std::string name = f.file_name;
   const auto fail = [&](std::size_t p, const std::string& what) {
     throw Damaged(name + " of particle " + std::to_string(p) + " (row " + std::to_string(p) + "): " + what);
@@ -148,11 +151,14 @@ void check_particles(const FieldSpec& f, const char* data, std::size_t count, co
         for (int a = 0; a < dim; ++a)
           if (!(v[dim * p + a] >= expected.lower[a] && v[dim * p + a] <= expected.upper[a]))
             fail(p, number_text(v[dim * p + a]) + " lies outside this case's grid along axis " + std::to_string(a));
+    } else if (field == field::volume_ratio) {
+      for (std::size_t p = 0; p < count; ++p)
+        if (!(v[p] > 0)) fail(p, number_text(v[p]) + " is not positive");
     } else if (field == field::mass || field == field::initial_volume) {
       for (std::size_t p = 0; p < count; ++p)
         if (!(v[p] > 0)) fail(p, number_text(v[p]) + " is not positive");
       (field == field::mass ? mass : volume).assign(v, v + count);
-    } else if (field == field::deformation_gradient) {
+    } else if (field == field::deformation_gradient && format < 8) {
       for (std::size_t p = 0; p < count; ++p) {
         const Eigen::Map<const Eigen::Matrix<double, dim, dim, Eigen::RowMajor>> F(v + dim * dim * p);
         if (!(F.determinant() > 0)) fail(p, "det F = " + number_text(F.determinant()) + " is not positive");
@@ -279,7 +285,7 @@ RunState read_particles(const std::string& path, Particles<dim>& particles, cons
   if (total == 0) throw Damaged("no particles");
   std::vector<double> mass, volume;
   std::vector<PetscInt> material;
-  check_particles<dim>(fields[0], buffer.data(), total, expected, mass, volume, material);
+  check_particles<dim>(fields[0], buffer.data(), total, expected, state.format, mass, volume, material);
   std::vector<std::size_t> mine;
   {
     const double* x = reinterpret_cast<const double*>(buffer.data());
@@ -334,10 +340,21 @@ RunState read_particles(const std::string& path, Particles<dim>& particles, cons
   if (expected.obstacles > 0) result.obstacle_loads = read_obstacle_loads(file.id, expected.obstacles, dim, state.time);
   TALUS_PETSC(DMSwarmSetLocalSizes(particles.swarm(), 0, 1024));
   particles.add(static_cast<PetscInt>(mine.size()));
+  std::vector<double> old_volume_ratio;  // format 7: J = det F
   for (std::size_t k = 0; k < fields.size(); ++k) {
     const FieldSpec& f = fields[k];
+    if (state.format < 8 && std::string(f.swarm_name) == field::volume_ratio) {
+      old_volume_ratio.reserve(mine.size());
+      const double* F = reinterpret_cast<const double*>(buffer.data());  // the deformation gradient, read just before
+      for (const std::size_t p : mine)
+        old_volume_ratio.push_back(
+            Eigen::Map<const Eigen::Matrix<double, dim, dim, Eigen::RowMajor>>(F + dim * dim * p).determinant());
+      FieldView<PetscReal> J(particles.swarm(), field::volume_ratio);
+      std::copy(old_volume_ratio.begin(), old_volume_ratio.end(), J.data());
+      continue;
+    }
     if (k > 0 && read_field(f, buffer) != total) throw Damaged("datasets of different lengths");
-    if (k > 0) check_particles<dim>(f, buffer.data(), total, expected, mass, volume, material);
+    if (k > 0) check_particles<dim>(f, buffer.data(), total, expected, state.format, mass, volume, material);
     void* data = nullptr;
     PetscInt block = 0;
     TALUS_PETSC(DMSwarmGetField(particles.swarm(), f.swarm_name, &block, nullptr, &data));

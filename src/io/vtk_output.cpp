@@ -82,7 +82,7 @@ std::string VtkSeries<dim>::write(const Particles<dim>& particles, double time) 
   const PetscInt n = particles.local_count();
   DM sw = particles.swarm();
   FieldView<PetscReal> x(sw, field::position), v(sw, field::velocity), u(sw, field::displacement),
-      s(sw, field::stress), m(sw, field::mass), v0(sw, field::initial_volume), F(sw, field::deformation_gradient),
+      s(sw, field::stress), m(sw, field::mass), v0(sw, field::initial_volume), volume_ratio(sw, field::volume_ratio),
       eps_p(sw, field::cumulative_plastic_strain), sep(sw, field::separation_strain);
   FieldView<PetscInt> mat(sw, field::material_id), body(sw, field::body_id);
   FieldView<std::int64_t> pid(sw, field::particle_id);
@@ -133,8 +133,7 @@ std::string VtkSeries<dim>::write(const Particles<dim>& particles, double time) 
     cells->InsertNextCell(1, &id);
     velocity->SetTuple(p, vp);
     displacement->SetTuple(p, up);
-    const Eigen::Map<const Eigen::Matrix<double, dim, dim, Eigen::RowMajor>> Fp(F.data() + dim * dim * p);
-    const double J = Fp.determinant();
+    const double J = volume_ratio[p];
     const Voigt sv = Eigen::Map<const Voigt>(s.data() + 6 * p) / J;  // Cauchy sigma = tau / J
     const double t[6] = {sv[0], sv[1], sv[2], sv[5], sv[3], sv[4]};
     stress->SetTuple(p, t);

@@ -20,6 +20,7 @@ Particles<dim>::Particles(MPI_Comm comm) {
   TALUS_PETSC(DMSwarmRegisterPetscDatatypeField(swarm_, field::mass, 1, PETSC_REAL));
   TALUS_PETSC(DMSwarmRegisterPetscDatatypeField(swarm_, field::initial_volume, 1, PETSC_REAL));
   TALUS_PETSC(DMSwarmRegisterPetscDatatypeField(swarm_, field::deformation_gradient, dim * dim, PETSC_REAL));
+  TALUS_PETSC(DMSwarmRegisterPetscDatatypeField(swarm_, field::volume_ratio, 1, PETSC_REAL));
   TALUS_PETSC(DMSwarmRegisterPetscDatatypeField(swarm_, field::stress, 6, PETSC_REAL));
   TALUS_PETSC(DMSwarmRegisterPetscDatatypeField(swarm_, field::material_state, max_state_size, PETSC_REAL));
   TALUS_PETSC(DMSwarmRegisterPetscDatatypeField(swarm_, field::cumulative_plastic_strain, 1, PETSC_REAL));

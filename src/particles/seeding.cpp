@@ -50,7 +50,7 @@ std::int64_t seed_body(Particles<dim>& particles, const Grid<dim>& grid, const B
   DM sw = particles.swarm();
   FieldView<PetscReal> pos(sw, field::position), vel(sw, field::velocity), aff(sw, field::affine_velocity),
       disp(sw, field::displacement), mass(sw, field::mass), vol0(sw, field::initial_volume),
-      defgrad(sw, field::deformation_gradient), stress(sw, field::stress), state(sw, field::material_state),
+      defgrad(sw, field::deformation_gradient), ratio(sw, field::volume_ratio), stress(sw, field::stress), state(sw, field::material_state),
       plastic(sw, field::cumulative_plastic_strain), separation(sw, field::separation_strain);
   FieldView<PetscInt> mat(sw, field::material_id), bid(sw, field::body_id);
   FieldView<std::int64_t> pid(sw, field::particle_id);
@@ -70,6 +70,7 @@ std::int64_t seed_body(Particles<dim>& particles, const Grid<dim>& grid, const B
       aff[dim * dim * p + i] = 0.0;
       defgrad[dim * dim * p + i] = (i % (dim + 1) == 0) ? 1.0 : 0.0;
     }
+    ratio[p] = 1.0;
     for (int i = 0; i < 6; ++i) stress[6 * p + i] = 0.0;
     if (body.geostatic) {
       // Lithostatic load of the material above, K0 laterally (tension positive).

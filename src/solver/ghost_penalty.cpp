@@ -10,7 +10,7 @@ namespace {
 
 // Per field and cell (stored at its lower corner's ghosted point, the index
 // of the first function of a particle's stencil in it), over all ranks: the
-// particles' current volume V0 det F and V M (M the P-wave modulus of the
+// particles' current volume V0 J and V M (M the P-wave modulus of the
 // particle's material).
 template <int dim>
 void cell_sums(const Grid<dim>& grid, const Particles<dim>& particles, const std::vector<Stencil<dim>>& stencils,
@@ -18,11 +18,10 @@ void cell_sums(const Grid<dim>& grid, const Particles<dim>& particles, const std
                std::vector<double>& volume, std::vector<double>& stiffness) {
   const std::size_t nodes = static_cast<std::size_t>(grid.ghosted_count()) * fields.field_count;
   std::vector<double> V(nodes, 0.0), VM(nodes, 0.0);
-  FieldView<PetscReal> v0(particles.swarm(), field::initial_volume), F(particles.swarm(), field::deformation_gradient);
+  FieldView<PetscReal> v0(particles.swarm(), field::initial_volume), J(particles.swarm(), field::volume_ratio);
   FieldView<PetscInt> material(particles.swarm(), field::material_id);
   for (std::size_t p = 0; p < stencils.size(); ++p) {
-    const double Vp =
-        v0[p] * Eigen::Map<const Eigen::Matrix<double, dim, dim, Eigen::RowMajor>>(F.data() + dim * dim * p).determinant();
+    const double Vp = v0[p] * J[p];
     V[stencils[p].local[0]] += Vp;
     VM[stencils[p].local[0]] += Vp * materials[material[p]]->elastic_stiffness()(0, 0);
   }

@@ -3,7 +3,7 @@
 namespace talus {
 
 template <int dim>
-Vector<dim> domain_half_width(double initial_volume, const Matrix<dim>& F) {
+Vector<dim> domain_half_width(double initial_volume, const Matrix<dim>& F, double J) {
   // The reference domain is a cube of the particle's initial volume. Its
   // current extent along axis a is taken as that of the image of a ball,
   // R |F^T e_a| (exact under stretches along the axes, unchanged by a
@@ -15,7 +15,6 @@ Vector<dim> domain_half_width(double initial_volume, const Matrix<dim>& F) {
     r[a] = F.row(a).norm();
     product *= r[a];
   }
-  const double J = F.determinant();
   if (!(J > 0.0) || !(product > 0.0)) return Vector<dim>::Zero();  // a degenerate particle: point quadrature
   return R * std::pow(J / product, 1.0 / dim) * r;
 }
@@ -27,10 +26,11 @@ void compute_stencils(const Grid<dim>& grid, const Particles<dim>& particles, st
   stencils.resize(n);
   FieldView<PetscReal> x(particles.swarm(), field::position);
   if (grid.quadrature() == ParticleQuadrature::domain) {
-    FieldView<PetscReal> F(particles.swarm(), field::deformation_gradient), V0(particles.swarm(), field::initial_volume);
+    FieldView<PetscReal> F(particles.swarm(), field::deformation_gradient), V0(particles.swarm(), field::initial_volume),
+        J(particles.swarm(), field::volume_ratio);
     for (PetscInt p = 0; p < n; ++p) {
       const Vector<dim> r = domain_half_width<dim>(
-          V0[p], Eigen::Map<const Eigen::Matrix<double, dim, dim, Eigen::RowMajor>>(F.data() + dim * dim * p));
+          V0[p], Eigen::Map<const Eigen::Matrix<double, dim, dim, Eigen::RowMajor>>(F.data() + dim * dim * p), J[p]);
       grid.stencil(Eigen::Map<const Vector<dim>>(x.data() + dim * p), stencils[p], &r);
     }
   } else {
@@ -129,7 +129,7 @@ void grid_to_particles(Particles<dim>& particles, const std::vector<Stencil<dim>
   using RowMat = Eigen::Matrix<double, dim, dim, Eigen::RowMajor>;
   DM sw = particles.swarm();
   FieldView<PetscReal> x(sw, field::position), v(sw, field::velocity), c(sw, field::affine_velocity),
-      u(sw, field::displacement), F(sw, field::deformation_gradient);
+      u(sw, field::displacement), F(sw, field::deformation_gradient), J(sw, field::volume_ratio);
   const PetscInt np = particles.local_count();
   const bool apic = transfer.scheme == TransferScheme::apic;
   const double blend = transfer.flip_blend;
@@ -158,12 +158,34 @@ void grid_to_particles(Particles<dim>& particles, const std::vector<Stencil<dim>
     } else {
       vp = blend * (vp + dv) + (1.0 - blend) * v_end;
     }
-    Fp = (Matrix<dim>::Identity() + h * grad_theta) * Fp;
+    const Matrix<dim> dF = Matrix<dim>::Identity() + h * grad_theta;
+    Fp = dF * Fp;
+    J[p] *= dF.determinant();
   }
 }
 
-template Vector<2> domain_half_width<2>(double, const Matrix<2>&);
-template Vector<3> domain_half_width<3>(double, const Matrix<3>&);
+template <int dim>
+long count_inverting_particles(const std::vector<Stencil<dim>>& stencils, const std::vector<double>& v_new,
+                               const std::vector<double>& v_old, double h, double theta,
+                               const std::vector<char>* skip) {
+  long inverting = 0;
+  for (std::size_t p = 0; p < stencils.size(); ++p) {
+    if (skip && (*skip)[p]) continue;
+    const Stencil<dim>& st = stencils[p];
+    Matrix<dim> grad_theta = Matrix<dim>::Zero();
+    for (int k = 0; k < st.count; ++k) {
+      const std::size_t o = static_cast<std::size_t>(dim) * st.local[k];
+      const Vector<dim> vt = theta * Eigen::Map<const Vector<dim>>(v_new.data() + o) +
+                             (1.0 - theta) * Eigen::Map<const Vector<dim>>(v_old.data() + o);
+      grad_theta += vt * st.gradient[k].transpose();
+    }
+    inverting += !((Matrix<dim>::Identity() + h * grad_theta).determinant() > 0.0);
+  }
+  return inverting;
+}
+
+template Vector<2> domain_half_width<2>(double, const Matrix<2>&, double);
+template Vector<3> domain_half_width<3>(double, const Matrix<3>&, double);
 template void compute_stencils<2>(const Grid<2>&, const Particles<2>&, std::vector<Stencil<2>>&,
                                   const std::vector<int>&);
 template void compute_stencils<3>(const Grid<3>&, const Particles<3>&, std::vector<Stencil<3>>&,
@@ -180,6 +202,11 @@ template void grid_to_particles<3>(Particles<3>&, const std::vector<Stencil<3>>&
                                    const std::vector<double>&, const std::vector<double>&,
                                    const std::vector<double>&, double, double, const TransferConfig&,
                                    const std::vector<char>*);
+
+template long count_inverting_particles<2>(const std::vector<Stencil<2>>&, const std::vector<double>&,
+                                           const std::vector<double>&, double, double, const std::vector<char>*);
+template long count_inverting_particles<3>(const std::vector<Stencil<3>>&, const std::vector<double>&,
+                                           const std::vector<double>&, double, double, const std::vector<char>*);
 
 }  // namespace talus
 

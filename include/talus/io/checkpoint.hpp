@@ -28,6 +28,7 @@ namespace talus {
 
 // Everything besides the particles that the run loop needs to continue.
 struct RunState {
+  int format = 0;  // the file's checkpoint format (docs/checkpoints.md)
   double time = 0.0;
   long steps = 0, cutbacks = 0;
   // StepController

@@ -27,6 +27,10 @@ inline constexpr const char* displacement = "displacement";         // dim
 inline constexpr const char* mass = "mass";                         // 1
 inline constexpr const char* initial_volume = "initial_volume";     // 1
 inline constexpr const char* deformation_gradient = "deformation_gradient";  // dim x dim, row-major
+// J = V / V0, advanced by the product det(I + h grad v) of the steps: det F
+// taken from F's entries loses its digits once a long stretch (the tip of a
+// spreading front, stretched 1e19-fold) makes F ill-conditioned.
+inline constexpr const char* volume_ratio = "volume_ratio";         // 1
 // Kirchhoff stress tau = J sigma (Voigt, tension positive): the internal
 // force is V0 tau grad N. The VTK output converts it to Cauchy stress.
 inline constexpr const char* stress = "stress";                     // 6

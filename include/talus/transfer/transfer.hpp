@@ -45,7 +45,7 @@ struct GridFields {
 // (docs/grid.md#particle-quadrature): a box of the particle's volume J V0
 // whose extents follow its stretch along the axes; zero if F is degenerate.
 template <int dim>
-Vector<dim> domain_half_width(double initial_volume, const Matrix<dim>& F);
+Vector<dim> domain_half_width(double initial_volume, const Matrix<dim>& F, double volume_ratio);
 
 template <int dim>
 void compute_stencils(const Grid<dim>& grid, const Particles<dim>& particles, std::vector<Stencil<dim>>& stencils,
@@ -75,5 +75,17 @@ void grid_to_particles(Particles<dim>& particles, const std::vector<Stencil<dim>
                        const std::vector<double>& v_new, const std::vector<double>& v_old,
                        const std::vector<double>& v_p2g, double h, double theta, const TransferConfig& transfer,
                        const std::vector<char>* skip = nullptr);
+
+// The particles whose neighbourhood the step would invert: those where
+// det(I + h grad v_theta) <= 0 (or is not a number), v_theta = theta v_new +
+// (1 - theta) v_old as in grid_to_particles. Such a step moves material
+// across the grid faster than the grid can follow (a layer driven through a
+// no-slip floor in one step); F^{n+1} = (I + h grad v_theta) F^n would lose
+// det F > 0, so the step is cut back (docs/solver.md#inverting-steps).
+// Particles with `skip[p]` are not counted. Local count.
+template <int dim>
+long count_inverting_particles(const std::vector<Stencil<dim>>& stencils, const std::vector<double>& v_new,
+                               const std::vector<double>& v_old, double h, double theta,
+                               const std::vector<char>* skip = nullptr);
 
 }  // namespace talus
