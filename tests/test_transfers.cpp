@@ -48,13 +48,9 @@ Totals<dim> grid_totals(const Grid<dim>& grid, const std::vector<double>& mass, 
   return t;
 }
 
+// Seeds the whole grid box [0, hi] with 2 particles per cell and axis, at rest.
 template <int dim>
-void check_conservation(ShapeKind kind, TransferScheme scheme, double flip_blend,
-                        ParticleQuadrature quadrature = ParticleQuadrature::point) {
-  Vector<dim> lo = Vector<dim>::Zero(), hi;
-  if constexpr (dim == 2) hi << 1.0, 0.8; else hi << 0.6, 0.5, 0.4;
-  Grid<dim> grid(PETSC_COMM_WORLD, lo, hi, 0.1, kind, quadrature);
-  Particles<dim> particles(grid.comm());
+void fill_grid_box(const Grid<dim>& grid, const Vector<dim>& hi, Particles<dim>& particles) {
   BodyConfig bc;
   bc.box_lower.assign(dim, 0.0);
   bc.box_upper.assign(hi.data(), hi.data() + dim);
@@ -69,6 +65,16 @@ void check_conservation(ShapeKind kind, TransferScheme scheme, double flip_blend
     std::string parameters() const override { return "model: dummy"; }
   } dummy;
   seed_body<dim>(particles, grid, bc, dummy, 0, 0);
+}
+
+template <int dim>
+void check_conservation(ShapeKind kind, TransferScheme scheme, double flip_blend,
+                        ParticleQuadrature quadrature = ParticleQuadrature::point) {
+  Vector<dim> lo = Vector<dim>::Zero(), hi;
+  if constexpr (dim == 2) hi << 1.0, 0.8; else hi << 0.6, 0.5, 0.4;
+  Grid<dim> grid(PETSC_COMM_WORLD, lo, hi, 0.1, kind, quadrature);
+  Particles<dim> particles(grid.comm());
+  fill_grid_box(grid, hi, particles);
   // Random masses, velocities and affine velocities, keyed by particle id.
   {
     FieldView<PetscReal> m(particles.swarm(), field::mass), v(particles.swarm(), field::velocity),
@@ -183,19 +189,7 @@ void check_inverting_count(ShapeKind kind) {
   if constexpr (dim == 2) hi << 1.0, 0.8; else hi << 0.6, 0.5, 0.4;
   Grid<dim> grid(PETSC_COMM_WORLD, lo, hi, 0.1, kind, ParticleQuadrature::point);
   Particles<dim> particles(grid.comm());
-  BodyConfig bc;
-  bc.box_lower.assign(dim, 0.0);
-  bc.box_upper.assign(hi.data(), hi.data() + dim);
-  bc.particles_per_cell = 2;
-  bc.velocity.assign(dim, 0.0);
-  struct Dummy : Material {
-    const char* model() const override { return "dummy"; }
-    double density() const override { return 1500.0; }
-    void update(const Voigt&, const Voigt&, const double*, double*, MaterialPointUpdate&) const override {}
-    const Tangent& elastic_stiffness() const override { static Tangent t = Tangent::Identity(); return t; }
-    std::string parameters() const override { return "model: dummy"; }
-  } dummy;
-  seed_body<dim>(particles, grid, bc, dummy, 0, 0);
+  fill_grid_box(grid, hi, particles);
   particles.migrate(grid);
   std::vector<Stencil<dim>> stencils;
   compute_stencils(grid, particles, stencils);
