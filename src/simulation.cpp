@@ -364,9 +364,21 @@ double Simulation<dim>::complete_step(const MomentumSystem<dim>& system, const s
   const auto t2 = std::chrono::steady_clock::now();
   // A rigid body's particles move with the body's motion, rotated exactly.
   const std::vector<char> rigid_particle = rigid_particles(system);
+  const std::vector<char>* skip = rigid_particle.empty() ? nullptr : &rigid_particle;
+  // The packing of the step's start, before G2P changes the volumes.
+  const double packing_rate = config_.transfer.packing_correction;
+  const std::vector<double> packing =
+      packing_rate > 0 ? particle_packing(*grid_, *particles_, stencils) : std::vector<double>();
   grid_to_particles(*particles_, stencils, system.end_velocity(), system.start_velocity(), fields.velocity, h,
-                    theta, config_.transfer, rigid_particle.empty() ? nullptr : &rigid_particle);
+                    theta, config_.transfer, skip);
   move_rigid_particles(*particles_, system.rigid_bodies(), system.rigid_motion(), h);
+  if (packing_rate > 0) {
+    // Particles crowded beyond their volumes move apart (docs/transfers.md#packing);
+    // gravity's work on the shift enters the energy balance as correction work.
+    double largest = 0.0;
+    correction_work_ += correct_packing(*particles_, stencils, packing, grid_->ghosted_count(), packing_rate,
+                                        grid_->cell_size(), gravity_, largest, skip);
+  }
   commit_material_state(system);
   check_finite();
   keep_particles_inside();

@@ -48,11 +48,13 @@ Totals<dim> grid_totals(const Grid<dim>& grid, const std::vector<double>& mass, 
   return t;
 }
 
-// Seeds the whole grid box [0, hi] with 2 particles per cell and axis, at rest.
+// Seeds the box [lo, hi] (by default the whole grid box [0, hi]) with 2
+// particles per cell and axis, at rest.
 template <int dim>
-void fill_grid_box(const Grid<dim>& grid, const Vector<dim>& hi, Particles<dim>& particles) {
+void fill_grid_box(const Grid<dim>& grid, const Vector<dim>& hi, Particles<dim>& particles,
+                   const Vector<dim>& lo = Vector<dim>::Zero()) {
   BodyConfig bc;
-  bc.box_lower.assign(dim, 0.0);
+  bc.box_lower.assign(lo.data(), lo.data() + dim);
   bc.box_upper.assign(hi.data(), hi.data() + dim);
   bc.particles_per_cell = 2;
   bc.velocity.assign(dim, 0.0);
@@ -246,4 +248,201 @@ TEST_CASE("a step that would invert particles is counted", "[transfer][mpi]") {
   check_inverting_count<2>(ShapeKind::quadratic_bspline);
   check_inverting_count<3>(ShapeKind::quadratic_bspline);
   check_inverting_count<2>(ShapeKind::linear);
+}
+
+namespace {
+
+// Per axis, the packing of a lattice of 2 particles per cell on the whole
+// axis: the quarter-point rule integrates every function whose knots are
+// uniform exactly (the quadratic B-spline's errors on its three spans, in
+// proportion to its second derivative's jumps 1, -2, 1, cancel), but not the
+// two clamped functions at a face: int (1 - u)^2 over [0, 1] is 1/3 and the
+// rule gives ((3/4)^2 + (1/4)^2)/2 = 5/16, so the face function reads
+// (5/16)/(1/3) = 15/16 and its neighbour, which takes up the rest of the cell
+// (partition of unity), (1 - 5/16)/(2/3) = 33/32. Hats are linear: exact.
+double axis_packing(ShapeKind kind, int i, int cells) {
+  if (kind == ShapeKind::linear) return 1.0;
+  if (i == 0 || i == cells + 1) return 15.0 / 16.0;
+  if (i == 1 || i == cells) return 33.0 / 32.0;
+  return 1.0;
+}
+
+template <int dim>
+double owned_max(const Grid<dim>& grid, const std::vector<double>& values) {
+  double largest = -1e300;
+  for (int i = 0; i < grid.ghosted_count(); ++i)
+    if (grid.is_owned(grid.global_index(i))) largest = std::max(largest, values[i]);
+  MPI_Allreduce(MPI_IN_PLACE, &largest, 1, MPI_DOUBLE, MPI_MAX, grid.comm());
+  return largest;
+}
+
+// The packing of a lattice that fills the grid box is the product of the
+// axes' closed forms above, times the particles' volume ratio (capped at 2).
+template <int dim>
+void check_packing_closed_form(ShapeKind kind) {
+  Vector<dim> hi;
+  if constexpr (dim == 2) hi << 1.0, 0.8; else hi << 0.6, 0.5, 0.4;
+  Grid<dim> grid(PETSC_COMM_WORLD, Vector<dim>::Zero(), hi, 0.1, kind, ParticleQuadrature::point);
+  Particles<dim> particles(grid.comm());
+  fill_grid_box(grid, hi, particles);
+  particles.migrate(grid);
+  std::vector<Stencil<dim>> stencils;
+  compute_stencils(grid, particles, stencils);
+  for (const double J : {1.0, 1.5, 3.0}) {
+    {
+      FieldView<PetscReal> ratio(particles.swarm(), field::volume_ratio);
+      for (PetscInt p = 0; p < particles.local_count(); ++p) ratio[p] = J;
+    }
+    const std::vector<double> packing = particle_packing(grid, particles, stencils);
+    double worst = 0.0;
+    for (int i = 0; i < grid.ghosted_count(); ++i) {
+      const auto ijk = grid.global_index(i);
+      double expected = std::min(J, 2.0);
+      for (int a = 0; a < dim; ++a) expected *= axis_packing(kind, ijk[a], grid.cells()[a]);
+      worst = std::max(worst, std::abs(packing[i] - expected));
+    }
+    MPI_Allreduce(MPI_IN_PLACE, &worst, 1, MPI_DOUBLE, MPI_MAX, grid.comm());
+    // Sums of 4-27 weights per particle over up to 64 particles: round-off ~1e-15.
+    CHECK(worst < 1e-12);
+  }
+}
+
+// The shift moves a particle down the gradient of the crowding. On a
+// synthetic packing P_i = 1.05 + c + a . x_i (x_i the Greville points) the
+// crowding is the linear field c + a . x, which both bases reproduce, so
+// sum_i (P_i - 1.05) grad N_ip = a and every particle moves by exactly
+// -rate h^2 a; gravity's work on the shift is -sum_p m_p g . dx_p.
+template <int dim>
+void check_shift_closed_form(ShapeKind kind) {
+  Vector<dim> hi;
+  if constexpr (dim == 2) hi << 1.0, 0.8; else hi << 0.6, 0.5, 0.4;
+  const double h = 0.1, rate = 0.25;
+  Grid<dim> grid(PETSC_COMM_WORLD, Vector<dim>::Zero(), hi, h, kind, ParticleQuadrature::point);
+  Particles<dim> particles(grid.comm());
+  fill_grid_box(grid, hi, particles);
+  particles.migrate(grid);
+  std::vector<Stencil<dim>> stencils;
+  compute_stencils(grid, particles, stencils);
+  Vector<dim> a = Vector<dim>::LinSpaced(0.3, 0.7), g = Vector<dim>::Zero();
+  g[dim - 1] = -9.81;
+  std::vector<double> packing(grid.ghosted_count());
+  for (int i = 0; i < grid.ghosted_count(); ++i)
+    packing[i] = 1.05 + 0.2 + a.dot(grid.point_position(grid.global_index(i)));
+  const PetscInt n = particles.local_count();
+  std::vector<double> x0(dim * n), u0(dim * n);
+  double mass = 0.0;
+  {
+    FieldView<PetscReal> x(particles.swarm(), field::position), u(particles.swarm(), field::displacement),
+        m(particles.swarm(), field::mass);
+    std::copy(x.data(), x.data() + dim * n, x0.begin());
+    std::copy(u.data(), u.data() + dim * n, u0.begin());
+    for (PetscInt p = 0; p < n; ++p) mass += m[p];
+  }
+  double largest = 0.0;
+  double work = correct_packing(particles, stencils, packing, grid.ghosted_count(), rate, h, g, largest);
+  MPI_Allreduce(MPI_IN_PLACE, &work, 1, MPI_DOUBLE, MPI_SUM, grid.comm());
+  MPI_Allreduce(MPI_IN_PLACE, &mass, 1, MPI_DOUBLE, MPI_SUM, grid.comm());
+  const Vector<dim> expected = -rate * h * h * a;
+  double worst = 0.0;
+  {
+    FieldView<PetscReal> x(particles.swarm(), field::position), u(particles.swarm(), field::displacement);
+    for (PetscInt p = 0; p < n; ++p)
+      for (int k = 0; k < dim; ++k) {
+        worst = std::max(worst, std::abs(x[dim * p + k] - x0[dim * p + k] - expected[k]));
+        worst = std::max(worst, std::abs(u[dim * p + k] - u0[dim * p + k] - expected[k]));
+      }
+  }
+  MPI_Allreduce(MPI_IN_PLACE, &worst, 1, MPI_DOUBLE, MPI_MAX, grid.comm());
+  // Shifts of 1e-3 m from gradients of O(10) 1/m summed over 9-27 functions.
+  CHECK(worst < 1e-15 * 1e3);
+  CHECK(largest == Approx(expected.norm()).epsilon(1e-10));
+  CHECK(work == Approx(-mass * g.dot(expected)).epsilon(1e-10));
+}
+
+// A block whose particles were crowded into 0.8 of their space per axis
+// (2D: packing 1.56) inside a larger empty box: repeated shifts spread it
+// until no point is crowded beyond the 5 % tolerance, the block's extent
+// grows by the factor its volume asks, and a body that is not crowded (the
+// lattice as seeded, packing at most 33/32) does not move at all.
+template <int dim>
+void check_crowded_block_relaxes(double rate) {
+  Vector<dim> hi, lo, top;
+  if constexpr (dim == 2) hi << 2.0, 2.0; else hi << 1.2, 1.2, 1.2;
+  const double h = 0.1;
+  lo.setConstant(0.5 * hi[0] - 0.3);
+  top.setConstant(0.5 * hi[0] + 0.3);
+  Grid<dim> grid(PETSC_COMM_WORLD, Vector<dim>::Zero(), hi, h, ShapeKind::quadratic_bspline,
+                 ParticleQuadrature::point);
+  Particles<dim> particles(grid.comm());
+  fill_grid_box(grid, top, particles, lo);
+  const Vector<dim> centre = 0.5 * (lo + top);
+  std::vector<Stencil<dim>> stencils;
+  auto extent = [&]() {
+    FieldView<PetscReal> x(particles.swarm(), field::position);
+    double reach = 0.0;
+    for (PetscInt p = 0; p < particles.local_count(); ++p)
+      reach = std::max(reach, (Eigen::Map<const Vector<dim>>(x.data() + dim * p) - centre).cwiseAbs().maxCoeff());
+    MPI_Allreduce(MPI_IN_PLACE, &reach, 1, MPI_DOUBLE, MPI_MAX, grid.comm());
+    return reach;
+  };
+  auto shift_once = [&]() {
+    compute_stencils(grid, particles, stencils);
+    const std::vector<double> packing = particle_packing(grid, particles, stencils);
+    double largest = 0.0;
+    correct_packing<dim>(particles, stencils, packing, grid.ghosted_count(), rate, h, Vector<dim>::Zero(), largest);
+    MPI_Allreduce(MPI_IN_PLACE, &largest, 1, MPI_DOUBLE, MPI_MAX, grid.comm());
+    particles.migrate(grid);
+    return std::pair<double, double>(owned_max(grid, packing), largest);
+  };
+  particles.migrate(grid);
+  // As seeded: nothing moves.
+  const double seeded = extent();
+  CHECK(shift_once().second == 0.0);
+  CHECK(extent() == seeded);
+  // Crowd it: positions 0.8 of the way from the centre, volumes unchanged.
+  {
+    FieldView<PetscReal> x(particles.swarm(), field::position);
+    for (PetscInt p = 0; p < particles.local_count(); ++p) {
+      Eigen::Map<Vector<dim>> xp(x.data() + dim * p);
+      xp = centre + 0.8 * (xp - centre);
+    }
+  }
+  particles.migrate(grid);
+  const double crowded = extent();
+  double first = 0.0, last = 0.0;
+  for (int k = 0; k < 400; ++k) {
+    const auto [most, largest] = shift_once();
+    if (k == 0) first = most;
+    last = most;
+    // Stable: no particle jumps half a cell in one application (the first
+    // ones move the block's edge by 0.2-0.4 h at rate 1).
+    CHECK(largest < 0.5 * h);
+  }
+  INFO("rate " << rate << ": largest packing " << first << " -> " << last << ", extent " << crowded << " -> "
+               << extent() << " (seeded " << seeded << ")");
+  CHECK(first > 1.4);
+  CHECK(last < 1.05 + 0.03);
+  // The block spreads back towards the extent of its volume.
+  CHECK(extent() > crowded + 0.5 * (seeded - crowded));
+}
+
+}  // namespace
+
+TEST_CASE("the packing of a lattice filling the grid has its closed form", "[transfer][packing][mpi]") {
+  check_packing_closed_form<2>(ShapeKind::quadratic_bspline);
+  check_packing_closed_form<3>(ShapeKind::quadratic_bspline);
+  check_packing_closed_form<2>(ShapeKind::linear);
+  check_packing_closed_form<3>(ShapeKind::linear);
+}
+
+TEST_CASE("the packing correction moves particles down the crowding's gradient", "[transfer][packing][mpi]") {
+  check_shift_closed_form<2>(ShapeKind::quadratic_bspline);
+  check_shift_closed_form<3>(ShapeKind::quadratic_bspline);
+  check_shift_closed_form<2>(ShapeKind::linear);
+}
+
+TEST_CASE("a crowded block spreads until its packing is within the tolerance", "[transfer][packing][mpi]") {
+  check_crowded_block_relaxes<2>(0.25);
+  check_crowded_block_relaxes<2>(1.0);
+  check_crowded_block_relaxes<3>(0.25);
 }

@@ -146,7 +146,11 @@ CaseFingerprint case_fingerprint(const YAML::Node& doc, const CaseConfig& c) {
                number_text(p.friction);
   f.emplace_back("contact", contact);
   f.emplace_back("transfer", std::string("scheme: ") + (c.transfer.scheme == TransferScheme::apic ? "apic" : "flip") +
-                                 ", flip_blend: " + number_text(c.transfer.flip_blend));
+                                 ", flip_blend: " + number_text(c.transfer.flip_blend) +
+                                 // Only when set: checkpoints of runs without it keep their fingerprint.
+                                 (c.transfer.packing_correction > 0
+                                      ? ", packing_correction: " + number_text(c.transfer.packing_correction)
+                                      : std::string()));
   return f;
 }
 

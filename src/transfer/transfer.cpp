@@ -184,6 +184,71 @@ long count_inverting_particles(const std::vector<Stencil<dim>>& stencils, const 
   return inverting;
 }
 
+// The largest volume ratio the packing counts (docs/transfers.md#packing).
+constexpr double kPackingVolumeRatioCap = 2.0;
+
+template <int dim>
+std::vector<double> particle_packing(const Grid<dim>& grid, const Particles<dim>& particles,
+                                     const std::vector<Stencil<dim>>& stencils) {
+  const int points = grid.ghosted_count();
+  std::vector<double> packing(static_cast<std::size_t>(points), 0.0);
+  {
+    FieldView<PetscReal> V0(particles.swarm(), field::initial_volume), J(particles.swarm(), field::volume_ratio);
+    for (std::size_t p = 0; p < stencils.size(); ++p) {
+      const Stencil<dim>& st = stencils[p];
+      // The volume, but at most twice the reference volume: a particle flung
+      // clear of the body keeps the affine velocity C_p of APIC, whose trace
+      // expands it at every step (J of 1e19 and more in the a = 8 column,
+      // docs/transfers.md#packing); its volume would push its neighbours away.
+      const double volume = V0[p] * std::min(J[p], kPackingVolumeRatioCap);
+      // With bodies in contact the stencil indexes its body's field: the
+      // packing is that of space, all fields together.
+      for (int k = 0; k < st.count; ++k) packing[st.local[k] % points] += volume * st.weight[k];
+    }
+  }
+  packing = grid.sum_over_ranks(packing, 1, 1);
+  const double cell_volume = std::pow(grid.cell_size(), dim);
+  for (int i = 0; i < points; ++i) {
+    const std::array<int, dim> ijk = grid.global_index(i);
+    double capacity = cell_volume;
+    for (int a = 0; a < dim; ++a) capacity *= basis_integral(grid.shape(), ijk[a], grid.cells()[a]);
+    packing[i] /= capacity;
+  }
+  return packing;
+}
+
+// Crowding below 5 % is left alone: a body at rest against a face reads
+// P = 1.031 at the face's second grid function (2 x 2 particles per cell:
+// their quadrature of the face functions' integrals, 1/3 and 2/3 cells, is
+// not exact as it is inside; it is exact for the hats), and particles that
+// the flow has disordered read a few per cent either way.
+constexpr double kPackingTolerance = 0.05;
+
+template <int dim>
+double correct_packing(Particles<dim>& particles, const std::vector<Stencil<dim>>& stencils,
+                       const std::vector<double>& packing, int points, double rate, double cell_size,
+                       const Vector<dim>& gravity, double& largest_shift, const std::vector<char>* skip) {
+  DM sw = particles.swarm();
+  FieldView<PetscReal> x(sw, field::position), u(sw, field::displacement), m(sw, field::mass);
+  const double scale = rate * cell_size * cell_size;
+  double work = 0.0;
+  largest_shift = 0.0;
+  for (std::size_t p = 0; p < stencils.size(); ++p) {
+    if (skip && (*skip)[p]) continue;
+    const Stencil<dim>& st = stencils[p];
+    Vector<dim> shift = Vector<dim>::Zero();
+    for (int k = 0; k < st.count; ++k) {
+      const double crowding = packing[st.local[k] % points] - (1.0 + kPackingTolerance);
+      if (crowding > 0.0) shift -= scale * crowding * st.gradient[k];
+    }
+    Eigen::Map<Vector<dim>>(x.data() + dim * p) += shift;
+    Eigen::Map<Vector<dim>>(u.data() + dim * p) += shift;
+    work -= m[p] * gravity.dot(shift);
+    largest_shift = std::max(largest_shift, shift.norm());
+  }
+  return work;
+}
+
 template Vector<2> domain_half_width<2>(double, const Matrix<2>&, double);
 template Vector<3> domain_half_width<3>(double, const Matrix<3>&, double);
 template void compute_stencils<2>(const Grid<2>&, const Particles<2>&, std::vector<Stencil<2>>&,
@@ -203,6 +268,14 @@ template void grid_to_particles<3>(Particles<3>&, const std::vector<Stencil<3>>&
                                    const std::vector<double>&, double, double, const TransferConfig&,
                                    const std::vector<char>*);
 
+template std::vector<double> particle_packing<2>(const Grid<2>&, const Particles<2>&,
+                                                const std::vector<Stencil<2>>&);
+template std::vector<double> particle_packing<3>(const Grid<3>&, const Particles<3>&,
+                                                const std::vector<Stencil<3>>&);
+template double correct_packing<2>(Particles<2>&, const std::vector<Stencil<2>>&, const std::vector<double>&, int,
+                                   double, double, const Vector<2>&, double&, const std::vector<char>*);
+template double correct_packing<3>(Particles<3>&, const std::vector<Stencil<3>>&, const std::vector<double>&, int,
+                                   double, double, const Vector<3>&, double&, const std::vector<char>*);
 template long count_inverting_particles<2>(const std::vector<Stencil<2>>&, const std::vector<double>&,
                                            const std::vector<double>&, double, double, const std::vector<char>*);
 template long count_inverting_particles<3>(const std::vector<Stencil<3>>&, const std::vector<double>&,

@@ -193,6 +193,8 @@ struct FaceContact {
 struct TransferConfig {
   TransferScheme scheme = TransferScheme::apic;
   double flip_blend = 0.99;  // FLIP fraction; 0 is PIC
+  // The packing correction's rate (docs/transfers.md#packing); 0: none.
+  double packing_correction = 0.0;
 };
 
 struct SolverConfig {

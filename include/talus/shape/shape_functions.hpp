@@ -65,6 +65,15 @@ inline double clamped_knot(int k, int cells) {
   return t < 0 ? 0.0 : (t > cells ? double(cells) : double(t));
 }
 
+// Integral of basis i over the grid, in cells: a B-spline of degree p on
+// knots t_i .. t_{i+p+1} integrates to (t_{i+p+1} - t_i) / (p + 1) (de Boor,
+// A Practical Guide to Splines, IX(20)); 1 inside, 1/3 and 2/3 for the two
+// quadratic functions at a face, 1/2 for a hat at a face.
+inline double basis_integral(ShapeKind kind, int i, int cells) {
+  if (kind == ShapeKind::linear) return (i == 0 || i == cells) ? 0.5 : 1.0;
+  return (clamped_knot(i + 3, cells) - clamped_knot(i, cells)) / 3.0;
+}
+
 // u: position in cell units (0 <= u <= cells); h: cell size.
 inline Basis1D evaluate_basis_1d(ShapeKind kind, double u, int cells, double h) {
   Basis1D b;

@@ -76,6 +76,29 @@ void grid_to_particles(Particles<dim>& particles, const std::vector<Stencil<dim>
                        const std::vector<double>& v_p2g, double h, double theta, const TransferConfig& transfer,
                        const std::vector<char>* skip = nullptr);
 
+// The particles' packing against their own volumes, per ghosted grid point
+// (docs/transfers.md#packing): P_i = sum_p min(J_p, 2) V0_p N_ip / int N_i dV,
+// with the integral over the grid. 1 inside a body whose particles fill the space
+// their volumes claim, below 1 at its surface, above 1 where the positions
+// have crowded together while the volumes J_p V0_p have not shrunk. Complete
+// on owned and ghost points (summed over the ranks and the velocity fields).
+template <int dim>
+std::vector<double> particle_packing(const Grid<dim>& grid, const Particles<dim>& particles,
+                                     const std::vector<Stencil<dim>>& stencils);
+
+// The packing correction (docs/transfers.md#packing): moves every particle by
+//   dx_p = -rate h^2 sum_i max(P_i - 1.05, 0) grad N_ip
+// (h the cell size), down the gradient of the crowding, with the stencils and
+// packing of the step's start. Positions and displacements only: mass,
+// velocity, F, J and the stress stay with the particle. Particles with
+// `skip[p]` stay. Returns this rank's work of gravity on the shift,
+// -sum_p m_p g . dx_p (the energy balance's correction_work), and sets
+// `largest_shift` to this rank's largest |dx_p|.
+template <int dim>
+double correct_packing(Particles<dim>& particles, const std::vector<Stencil<dim>>& stencils,
+                       const std::vector<double>& packing, int points, double rate, double cell_size,
+                       const Vector<dim>& gravity, double& largest_shift, const std::vector<char>* skip = nullptr);
+
 // The particles whose neighbourhood the step would invert: those where
 // det(I + h grad v_theta) <= 0 (or is not a number), v_theta = theta v_new +
 // (1 - theta) v_old as in grid_to_particles. Such a step moves material
