@@ -40,6 +40,15 @@ the deposit has stopped.
                                                                         # the no-slip floor
     /usr/bin/python3 scripts/study_column_aspect.py --quadrature domain --aspects 2 --levels 10,20,40 \
         --steps 0.00125 --out bench_results/column_aspect_domain        # domain quadrature
+    /usr/bin/python3 scripts/study_column_aspect.py --floor fixed --aspects 8 --levels 10,20,40 \
+        --steps 0.00125 --packing-correction 0.25 --out bench_results/column_aspect_packing
+                                                                        # the packing correction
+    /usr/bin/python3 scripts/study_column_aspect.py --floor fixed --aspects 8 --levels 10 \
+        --steps 0.00125 --particles-per-cell 4 --out bench_results/column_aspect_ppc4
+
+The table's `packing` is how densely the final deposit's particles sit
+against their own volumes (scripts/particle_packing.py, boxes of 0.04 m;
+1 is consistent; docs/transfers.md#packing).
 
 Writes into OUT (default bench_results/column_aspect/, which git ignores):
 the cases, the talus output, aspect.csv, aspect.md and aspect.png.
@@ -56,6 +65,7 @@ import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from bench_common import markdown_lines, table_lines  # noqa: E402
+from particle_packing import packing  # noqa: E402
 from pvd import pvd_series, read_particles  # noqa: E402
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -64,6 +74,7 @@ PPC = 2
 PHI = 30.0  # the friction angle (deg); --friction-angle changes it, and the floor's mu = tan(phi) with it
 QUADRATURE = "point"  # grid.quadrature; --quadrature domain (docs/grid.md#particle-quadrature)
 FLOOR = "frictional"  # the floor: a Coulomb face with mu = tan(phi), or --floor fixed (no slip)
+PACKING_CORRECTION = 0.0  # transfer.packing_correction (docs/transfers.md#packing); --packing-correction
 G = 9.81
 
 
@@ -134,7 +145,7 @@ boundaries:
   x_max: slip
   y_min: {floor_text()}
   y_max: slip
-"""
+""" + (f"transfer:\n  packing_correction: {PACKING_CORRECTION:g}\n" if PACKING_CORRECTION > 0 else "")
 
 
 def deposit(pvd_path, spacing):
@@ -164,13 +175,21 @@ COLUMNS = [
     ("farthest", "farthest", "{:.3f}"),
     ("height", "H_f/L0", "{:.3f}"),
     ("ke_ratio", "KE end/peak pot.", "{:.1e}"),
+    ("packing", "packing", "{:.2f}"),
     ("lube_runout", "Lube run-out", "{:.2f}"),
     ("lube_height", "Lube H_f/L0", "{:.2f}"),
 ]
 
 
+def run_label(a, cells, step):
+    """The run's name; particles per cell and the packing correction only
+    where they are not the defaults (the names of earlier studies stay)."""
+    return (f"a{a:g}_c{cells}_h{step:g}" + (f"_p{PPC}" if PPC != 2 else "")
+            + (f"_k{PACKING_CORRECTION:g}" if PACKING_CORRECTION > 0 else ""))
+
+
 def run(args, a, cells, step):
-    label = f"a{a:g}_c{cells}_h{step:g}"
+    label = run_label(a, cells, step)
     out = os.path.join(args.out, label)
     case = os.path.join(args.out, label + ".yaml")
     with open(case, "w") as f:
@@ -193,11 +212,18 @@ def run(args, a, cells, step):
 
 def measure(args, row):
     spacing = L0 / row["cells"] / PPC
-    l99, far, top, ke = deposit(os.path.join(args.out, row["label"], "particles.pvd"), spacing)
+    pvd = os.path.join(args.out, row["label"], "particles.pvd")
+    l99, far, top, ke = deposit(pvd, spacing)
+    # How densely the deposit's particles are packed against their volumes
+    # (boxes of 0.04 m = L0/5; scripts/particle_packing.py).
+    x, (m,) = read_particles(pvd_series(pvd)[-1][1], ["mass"])
+    reference = m / 1800.0
+    packed = packing(x, reference, reference, 0.04)[0]
     a = row["a"]
     potential = 1800.0 * G * L0 * (a * L0) ** 2 / 2.0  # rho g L0 H0^2 / 2, per unit thickness
     row.update({"runout": (l99 - L0) / L0, "farthest": (far - L0) / L0, "height": top / L0,
-                "ke_ratio": ke / potential, "lube_runout": lube_runout(a), "lube_height": lube_height(a)})
+                "ke_ratio": ke / potential, "packing": packed, "lube_runout": lube_runout(a),
+                "lube_height": lube_height(a)})
     return row
 
 
@@ -286,16 +312,23 @@ def main():
                    help="the floor: a Coulomb face with mu = tan(phi) (default) or no slip")
     p.add_argument("--quadrature", choices=["point", "domain"], default=QUADRATURE,
                    help="the particles' quadrature (grid.quadrature); default point")
+    p.add_argument("--particles-per-cell", type=int, default=PPC, help="per axis; default 2")
+    p.add_argument("--packing-correction", type=float, default=PACKING_CORRECTION,
+                   help="transfer.packing_correction (docs/transfers.md#packing); default 0, none")
     args = p.parse_args()
     globals()["PHI"] = args.friction_angle
     globals()["QUADRATURE"] = args.quadrature
     globals()["FLOOR"] = args.floor
+    globals()["PPC"] = args.particles_per_cell
+    globals()["PACKING_CORRECTION"] = args.packing_correction
     os.makedirs(args.out, exist_ok=True)
     csv_path = os.path.join(args.out, "aspect.csv")
     keys = [k for k, _, _ in COLUMNS] + ["label"]
     def read_rows(path=None):
         with open(path or csv_path) as f:
-            rows = [{k: (v if k == "label" else float(v)) for k, v in r.items()} for r in csv.DictReader(f)]
+            # Columns an earlier study did not have are empty.
+            rows = [{k: (v if k == "label" else float(v) if v != "" else None) for k, v in r.items()}
+                    for r in csv.DictReader(f)]
         for r in rows:
             for k in ("cells", "particles", "steps", "cutbacks"):
                 r[k] = int(r[k])
