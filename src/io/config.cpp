@@ -484,15 +484,7 @@ CaseConfig parse_root(YamlSection& root, const YAML::Node& doc) {
 
   if (root.has("transfer")) {
     YamlSection t = root.section("transfer");
-    c.transfer.scheme = t.choice("scheme", {"apic", "flip"}, "apic") == "apic" ? TransferScheme::apic
-                                                                                  : TransferScheme::flip;
-    c.transfer.flip_blend = t.real("flip_blend", 0.99);
-    if (!(c.transfer.flip_blend >= 0 && c.transfer.flip_blend <= 1))
-      t.fail_value("flip_blend", "must be in [0, 1]");
-    c.transfer.packing_correction = t.real("packing_correction", 0.0);
-    if (!(c.transfer.packing_correction >= 0 && c.transfer.packing_correction <= 1))
-      t.fail_value("packing_correction", "must be in [0, 1]");
-    t.finish();
+    parse_transfer(t, c);
   }
 
   // The ghost penalty is defined for quadratic B-splines only

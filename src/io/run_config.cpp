@@ -1,5 +1,6 @@
 // The sections of a case file that configure the run rather than the
-// model: the equilibrium stage, the solver and the ranks' balance
+// model: the particle-grid transfers, the equilibrium stage, the solver and
+// the ranks' balance
 // (docs/case_file.md).
 #include "talus/io/run_config.hpp"
 
@@ -12,6 +13,17 @@
 #include "talus/solver/petsc_options.hpp"
 
 namespace talus {
+
+void parse_transfer(YamlSection& t, CaseConfig& c) {
+  c.transfer.scheme = t.choice("scheme", {"apic", "flip"}, "apic") == "apic" ? TransferScheme::apic
+                                                                                : TransferScheme::flip;
+  c.transfer.flip_blend = t.real("flip_blend", 0.99);
+  if (!(c.transfer.flip_blend >= 0 && c.transfer.flip_blend <= 1)) t.fail_value("flip_blend", "must be in [0, 1]");
+  c.transfer.packing_correction = t.real("packing_correction", 0.0);
+  if (!(c.transfer.packing_correction >= 0 && c.transfer.packing_correction <= 1))
+    t.fail_value("packing_correction", "must be in [0, 1]");
+  t.finish();
+}
 
 void parse_equilibrium(YamlSection& e, CaseConfig& c) {
   // The equilibrium stage (docs/equilibrium.md).
