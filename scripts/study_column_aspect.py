@@ -74,7 +74,7 @@ PPC = 2
 PHI = 30.0  # the friction angle (deg); --friction-angle changes it, and the floor's mu = tan(phi) with it
 QUADRATURE = "point"  # grid.quadrature; --quadrature domain (docs/grid.md#particle-quadrature)
 FLOOR = "frictional"  # the floor: a Coulomb face with mu = tan(phi), or --floor fixed (no slip)
-PACKING_CORRECTION = 0.0  # transfer.packing_correction (docs/transfers.md#packing); --packing-correction
+PACKING_CORRECTION = None  # transfer.packing_correction (docs/transfers.md#packing); None: talus's default
 G = 9.81
 
 
@@ -145,7 +145,7 @@ boundaries:
   x_max: slip
   y_min: {floor_text()}
   y_max: slip
-""" + (f"transfer:\n  packing_correction: {PACKING_CORRECTION:g}\n" if PACKING_CORRECTION > 0 else "")
+""" + (f"transfer:\n  packing_correction: {PACKING_CORRECTION:g}\n" if PACKING_CORRECTION is not None else "")
 
 
 def deposit(pvd_path, spacing):
@@ -185,7 +185,7 @@ def run_label(a, cells, step):
     """The run's name; particles per cell and the packing correction only
     where they are not the defaults (the names of earlier studies stay)."""
     return (f"a{a:g}_c{cells}_h{step:g}" + (f"_p{PPC}" if PPC != 2 else "")
-            + (f"_k{PACKING_CORRECTION:g}" if PACKING_CORRECTION > 0 else ""))
+            + (f"_k{PACKING_CORRECTION:g}" if PACKING_CORRECTION is not None else ""))
 
 
 def run(args, a, cells, step):
@@ -314,7 +314,7 @@ def main():
                    help="the particles' quadrature (grid.quadrature); default point")
     p.add_argument("--particles-per-cell", type=int, default=PPC, help="per axis; default 2")
     p.add_argument("--packing-correction", type=float, default=PACKING_CORRECTION,
-                   help="transfer.packing_correction (docs/transfers.md#packing); default 0, none")
+                   help="transfer.packing_correction (docs/transfers.md#packing); default: talus's (0, none)")
     args = p.parse_args()
     globals()["PHI"] = args.friction_angle
     globals()["QUADRATURE"] = args.quadrature

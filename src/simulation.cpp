@@ -109,6 +109,16 @@ Simulation<dim>::Simulation(const CaseConfig& config, MPI_Comm comm) : config_(c
   double max_mass = 0.0;
   MPI_Allreduce(&local_max, &max_mass, 1, MPI_DOUBLE, MPI_MAX, comm);
   mass_threshold_ = config.solver.active_mass_ratio * max_mass;
+  // Per body, the particles per cell of its lattice, for the packing's rule at
+  // the faces; for particles read from a file, those of a lattice of their
+  // mean volume (docs/transfers.md#packing).
+  for (const BodyConfig& b : config.bodies) {
+    double mean = 0.0;
+    for (const double v : b.file_volumes) mean += v / static_cast<double>(b.file_volumes.size());
+    const double per_cell = mean > 0 ? config.grid.cell_size / std::pow(mean, 1.0 / dim) : 0.0;
+    packing_lattice_.push_back(b.particle_file.empty() ? b.particles_per_cell
+                                                       : static_cast<int>(std::clamp(std::round(per_cell), 1.0, 64.0)));
+  }
   apply_case_petsc_options(config);
   check_solver_options<dim>(config, comm);
   newton_ = std::make_unique<NewtonSolver<dim>>(comm, config.solver.direct_solver_limit,
@@ -367,8 +377,11 @@ double Simulation<dim>::complete_step(const MomentumSystem<dim>& system, const s
   const std::vector<char>* skip = rigid_particle.empty() ? nullptr : &rigid_particle;
   // The packing of the step's start, before G2P changes the volumes.
   const double packing_rate = config_.transfer.packing_correction;
-  const std::vector<double> packing =
-      packing_rate > 0 ? particle_packing(*grid_, *particles_, stencils) : std::vector<double>();
+  std::array<bool, 2 * dim> open_faces;
+  for (int f = 0; f < 2 * dim; ++f) open_faces[f] = config_.faces[f] == FaceCondition::free;
+  const std::vector<double> packing = packing_rate > 0
+                                          ? particle_packing(*grid_, *particles_, stencils, packing_lattice_, open_faces)
+                                          : std::vector<double>();
   grid_to_particles(*particles_, stencils, system.end_velocity(), system.start_velocity(), fields.velocity, h,
                     theta, config_.transfer, skip);
   move_rigid_particles(*particles_, system.rigid_bodies(), system.rigid_motion(), h);

@@ -52,11 +52,11 @@ Totals<dim> grid_totals(const Grid<dim>& grid, const std::vector<double>& mass, 
 // particles per cell and axis, at rest.
 template <int dim>
 void fill_grid_box(const Grid<dim>& grid, const Vector<dim>& hi, Particles<dim>& particles,
-                   const Vector<dim>& lo = Vector<dim>::Zero()) {
+                   const Vector<dim>& lo = Vector<dim>::Zero(), int particles_per_cell = 2) {
   BodyConfig bc;
   bc.box_lower.assign(lo.data(), lo.data() + dim);
   bc.box_upper.assign(hi.data(), hi.data() + dim);
-  bc.particles_per_cell = 2;
+  bc.particles_per_cell = particles_per_cell;
   bc.velocity.assign(dim, 0.0);
   // Any material will do: seeding only reads the density.
   struct Dummy : Material {
@@ -277,34 +277,74 @@ double owned_max(const Grid<dim>& grid, const std::vector<double>& values) {
 }
 
 // The packing of a lattice that fills the grid box is the product of the
-// axes' closed forms above, times the particles' volume ratio (capped at 2).
+// axes' closed forms above, times the particles' volume ratio (capped at 2),
+// when particle_packing is not told the lattice; told it (n = 2 or 3 per
+// cell), it divides by the lattice's rule and reads min(J, 2) everywhere but
+// at an open face, whose functions read 0.
 template <int dim>
 void check_packing_closed_form(ShapeKind kind) {
   Vector<dim> hi;
   if constexpr (dim == 2) hi << 1.0, 0.8; else hi << 0.6, 0.5, 0.4;
   Grid<dim> grid(PETSC_COMM_WORLD, Vector<dim>::Zero(), hi, 0.1, kind, ParticleQuadrature::point);
-  Particles<dim> particles(grid.comm());
-  fill_grid_box(grid, hi, particles);
-  particles.migrate(grid);
-  std::vector<Stencil<dim>> stencils;
-  compute_stencils(grid, particles, stencils);
-  for (const double J : {1.0, 1.5, 3.0}) {
-    {
-      FieldView<PetscReal> ratio(particles.swarm(), field::volume_ratio);
-      for (PetscInt p = 0; p < particles.local_count(); ++p) ratio[p] = J;
+  for (const int n : {2, 3}) {
+    Particles<dim> particles(grid.comm());
+    fill_grid_box(grid, hi, particles, Vector<dim>(Vector<dim>::Zero()), n);
+    particles.migrate(grid);
+    std::vector<Stencil<dim>> stencils;
+    compute_stencils(grid, particles, stencils);
+    for (const double J : {1.0, 1.5, 3.0}) {
+      {
+        FieldView<PetscReal> ratio(particles.swarm(), field::volume_ratio);
+        for (PetscInt p = 0; p < particles.local_count(); ++p) ratio[p] = J;
+      }
+      const std::vector<double> packing = particle_packing(grid, particles, stencils);
+      const std::vector<double> on_lattice = particle_packing(grid, particles, stencils, {n});
+      double worst = 0.0, worst_on_lattice = 0.0;
+      for (int i = 0; i < grid.ghosted_count(); ++i) {
+        const auto ijk = grid.global_index(i);
+        double expected = std::min(J, 2.0);
+        if (n == 2)
+          for (int a = 0; a < dim; ++a) expected *= axis_packing(kind, ijk[a], grid.cells()[a]);
+        if (n == 2) worst = std::max(worst, std::abs(packing[i] - expected));
+        worst_on_lattice = std::max(worst_on_lattice, std::abs(on_lattice[i] - std::min(J, 2.0)));
+      }
+      // An open x_max face: its functions read 0, the others as before.
+      std::array<bool, 2 * dim> open{};
+      open[1] = true;
+      const std::vector<double> open_x = particle_packing(grid, particles, stencils, {n}, open);
+      const int at_face = kind == ShapeKind::linear ? 1 : 2;
+      for (int i = 0; i < grid.ghosted_count(); ++i) {
+        const bool ends_there = grid.global_index(i)[0] >= grid.points()[0] - at_face;
+        worst_on_lattice = std::max(worst_on_lattice, std::abs(open_x[i] - (ends_there ? 0.0 : on_lattice[i])));
+      }
+      MPI_Allreduce(MPI_IN_PLACE, &worst, 1, MPI_DOUBLE, MPI_MAX, grid.comm());
+      MPI_Allreduce(MPI_IN_PLACE, &worst_on_lattice, 1, MPI_DOUBLE, MPI_MAX, grid.comm());
+      // Sums of 4-27 weights per particle over up to 216 particles: round-off ~1e-15.
+      CHECK(worst < 1e-12);
+      CHECK(worst_on_lattice < 1e-12);
     }
-    const std::vector<double> packing = particle_packing(grid, particles, stencils);
-    double worst = 0.0;
-    for (int i = 0; i < grid.ghosted_count(); ++i) {
-      const auto ijk = grid.global_index(i);
-      double expected = std::min(J, 2.0);
-      for (int a = 0; a < dim; ++a) expected *= axis_packing(kind, ijk[a], grid.cells()[a]);
-      worst = std::max(worst, std::abs(packing[i] - expected));
-    }
-    MPI_Allreduce(MPI_IN_PLACE, &worst, 1, MPI_DOUBLE, MPI_MAX, grid.comm());
-    // Sums of 4-27 weights per particle over up to 64 particles: round-off ~1e-15.
-    CHECK(worst < 1e-12);
   }
+}
+
+// The lattice's rule on one axis against its closed form: the midpoint rule
+// with n points per cell on int_0^1 (1 - u)^2 du = 1/3 gives
+// (1/n^3) sum_m (m + 1/2)^2 = 1/3 - 1/(12 n^2), so 1 - 1/(4 n^2) of it; the
+// face's second function takes up the rest of the first cell (partition of
+// unity; the third function's share there, u^2/2, is short by as much as
+// (1 - u)^2 / 2 is) and is exact on its other spans: 1 + 1/(8 n^2).
+template <int dim>
+void check_lattice_rule() {
+  for (const int n : {1, 2, 3, 5})
+    for (const int cells : {3, 4, 9}) {
+      const std::vector<double> r = lattice_rule_ratio(ShapeKind::quadratic_bspline, cells, n);
+      REQUIRE(static_cast<int>(r.size()) == cells + 2);
+      for (int i = 0; i < cells + 2; ++i) {
+        const int from_face = std::min(i, cells + 1 - i);
+        const double expected = from_face == 0 ? 1.0 - 0.25 / (n * n) : from_face == 1 ? 1.0 + 0.125 / (n * n) : 1.0;
+        CHECK(r[i] == Approx(expected).epsilon(1e-13));
+      }
+      for (const double x : lattice_rule_ratio(ShapeKind::linear, cells, n)) CHECK(x == Approx(1.0).epsilon(1e-13));
+    }
 }
 
 // The shift moves a particle down the gradient of the crowding. On a
@@ -433,6 +473,10 @@ TEST_CASE("the packing of a lattice filling the grid has its closed form", "[tra
   check_packing_closed_form<3>(ShapeKind::quadratic_bspline);
   check_packing_closed_form<2>(ShapeKind::linear);
   check_packing_closed_form<3>(ShapeKind::linear);
+}
+
+TEST_CASE("a lattice's rule on the grid functions' integrals has its closed form", "[transfer][packing]") {
+  check_lattice_rule<2>();
 }
 
 TEST_CASE("the packing correction moves particles down the crowding's gradient", "[transfer][packing][mpi]") {

@@ -273,6 +273,7 @@ class Simulation {
   // particles' energies after the last step.
   double initial_energy_ = std::numeric_limits<double>::quiet_NaN();
   EnergyTerms energy_;
+  std::vector<int> packing_lattice_;  // per body: particles per cell of its lattice (particle_packing)
   double correction_work_ = 0.0;  // this rank's, of the current step (keep_particles_inside)
   ParticleEnergy particle_energy_;
   PetscInt last_system_size_ = 0;

@@ -19,7 +19,7 @@ void parse_transfer(YamlSection& t, CaseConfig& c) {
                                                                                 : TransferScheme::flip;
   c.transfer.flip_blend = t.real("flip_blend", 0.99);
   if (!(c.transfer.flip_blend >= 0 && c.transfer.flip_blend <= 1)) t.fail_value("flip_blend", "must be in [0, 1]");
-  c.transfer.packing_correction = t.real("packing_correction", 0.0);
+  c.transfer.packing_correction = t.real("packing_correction", TransferConfig{}.packing_correction);
   if (!(c.transfer.packing_correction >= 0 && c.transfer.packing_correction <= 1))
     t.fail_value("packing_correction", "must be in [0, 1]");
   t.finish();

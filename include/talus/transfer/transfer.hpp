@@ -78,13 +78,19 @@ void grid_to_particles(Particles<dim>& particles, const std::vector<Stencil<dim>
 
 // The particles' packing against their own volumes, per ghosted grid point
 // (docs/transfers.md#packing): P_i = sum_p min(J_p, 2) V0_p N_ip / int N_i dV,
-// with the integral over the grid. 1 inside a body whose particles fill the space
+// with the integral over the grid. lattice[b]: the particles per cell (per
+// axis) of body b's seeding lattice, 0 for particles read from a file; with
+// point quadrature a body's weights are divided by its lattice's rule on the
+// integrals (lattice_rule_ratio), so that a body as seeded reads 1 at the
+// faces too. At an open face (open_faces: x_min, x_max, y_min, ...) the
+// functions that end there read 0. 1 inside a body whose particles fill the space
 // their volumes claim, below 1 at its surface, above 1 where the positions
 // have crowded together while the volumes J_p V0_p have not shrunk. Complete
 // on owned and ghost points (summed over the ranks and the velocity fields).
 template <int dim>
 std::vector<double> particle_packing(const Grid<dim>& grid, const Particles<dim>& particles,
-                                     const std::vector<Stencil<dim>>& stencils);
+                                     const std::vector<Stencil<dim>>& stencils, const std::vector<int>& lattice = {},
+                                     const std::array<bool, 2 * dim>& open_faces = {});
 
 // The packing correction (docs/transfers.md#packing): moves every particle by
 //   dx_p = -rate h^2 sum_i max(P_i - 1.05, 0) grad N_ip
