@@ -389,8 +389,10 @@ double Simulation<dim>::complete_step(const MomentumSystem<dim>& system, const s
     // Particles crowded beyond their volumes move apart (docs/transfers.md#packing);
     // gravity's work on the shift enters the energy balance as correction work.
     double largest = 0.0;
-    correction_work_ += correct_packing(*particles_, stencils, packing, grid_->ghosted_count(), packing_rate,
-                                        grid_->cell_size(), gravity_, largest, skip);
+    std::array<bool, 2 * dim> contact_faces;
+    for (int f = 0; f < 2 * dim; ++f) contact_faces[f] = config_.faces[f] == FaceCondition::frictional;
+    correction_work_ += correct_packing(*particles_, stencils, packing, *grid_, packing_rate, gravity_, largest, skip,
+                                        contact_faces);
   }
   commit_material_state(system);
   check_finite();

@@ -379,7 +379,7 @@ void check_shift_closed_form(ShapeKind kind) {
     for (PetscInt p = 0; p < n; ++p) mass += m[p];
   }
   double largest = 0.0;
-  double work = correct_packing(particles, stencils, packing, grid.ghosted_count(), rate, h, g, largest);
+  double work = correct_packing(particles, stencils, packing, grid, rate, g, largest);
   MPI_Allreduce(MPI_IN_PLACE, &work, 1, MPI_DOUBLE, MPI_SUM, grid.comm());
   MPI_Allreduce(MPI_IN_PLACE, &mass, 1, MPI_DOUBLE, MPI_SUM, grid.comm());
   const Vector<dim> expected = -rate * h * h * a;
@@ -397,6 +397,39 @@ void check_shift_closed_form(ShapeKind kind) {
   CHECK(worst < 1e-15 * 1e3);
   CHECK(largest == Approx(expected.norm()).epsilon(1e-10));
   CHECK(work == Approx(-mass * g.dot(expected)).epsilon(1e-10));
+
+  // With a contact floor (y_min, or z_min in 3D), the particles whose
+  // stencils reach its functions (the first cell and a half above it for
+  // the B-splines, the first cell for the hats) move along it only: the same
+  // shift without its vertical component; the others as before.
+  {
+    FieldView<PetscReal> x(particles.swarm(), field::position), u(particles.swarm(), field::displacement);
+    std::copy(x0.begin(), x0.end(), x.data());
+    std::copy(u0.begin(), u0.end(), u.data());
+  }
+  std::array<bool, 2 * dim> contact{};
+  contact[2 * (dim - 1)] = true;
+  correct_packing(particles, stencils, packing, grid, rate, g, largest, nullptr, contact);
+  const int at_face = kind == ShapeKind::linear ? 1 : 2;
+  worst = 0.0;
+  long along = 0, free = 0;
+  {
+    FieldView<PetscReal> x(particles.swarm(), field::position);
+    for (PetscInt p = 0; p < n; ++p) {
+      bool reaches = false;
+      for (int k = 0; k < stencils[p].count; ++k) reaches = reaches || stencils[p].node[k][dim - 1] < at_face;
+      ++(reaches ? along : free);
+      Vector<dim> e = expected;
+      if (reaches) e[dim - 1] = 0.0;
+      for (int k = 0; k < dim; ++k) worst = std::max(worst, std::abs(x[dim * p + k] - x0[dim * p + k] - e[k]));
+    }
+  }
+  MPI_Allreduce(MPI_IN_PLACE, &worst, 1, MPI_DOUBLE, MPI_MAX, grid.comm());
+  MPI_Allreduce(MPI_IN_PLACE, &along, 1, MPI_LONG, MPI_SUM, grid.comm());
+  MPI_Allreduce(MPI_IN_PLACE, &free, 1, MPI_LONG, MPI_SUM, grid.comm());
+  CHECK(worst < 1e-15 * 1e3);
+  CHECK(along > 0);
+  CHECK(free > 0);
 }
 
 // A block whose particles were crowded into 0.8 of their space per axis
@@ -429,7 +462,7 @@ void check_crowded_block_relaxes(double rate) {
     compute_stencils(grid, particles, stencils);
     const std::vector<double> packing = particle_packing(grid, particles, stencils);
     double largest = 0.0;
-    correct_packing<dim>(particles, stencils, packing, grid.ghosted_count(), rate, h, Vector<dim>::Zero(), largest);
+    correct_packing<dim>(particles, stencils, packing, grid, rate, Vector<dim>::Zero(), largest);
     MPI_Allreduce(MPI_IN_PLACE, &largest, 1, MPI_DOUBLE, MPI_MAX, grid.comm());
     particles.migrate(grid);
     return std::pair<double, double>(owned_max(grid, packing), largest);

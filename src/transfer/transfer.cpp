@@ -255,21 +255,35 @@ constexpr double kPackingTolerance = 0.05;
 
 template <int dim>
 double correct_packing(Particles<dim>& particles, const std::vector<Stencil<dim>>& stencils,
-                       const std::vector<double>& packing, int points, double rate, double cell_size,
-                       const Vector<dim>& gravity, double& largest_shift, const std::vector<char>* skip) {
+                       const std::vector<double>& packing, const Grid<dim>& grid, double rate,
+                       const Vector<dim>& gravity, double& largest_shift, const std::vector<char>* skip,
+                       const std::array<bool, 2 * dim>& contact_faces) {
   DM sw = particles.swarm();
   FieldView<PetscReal> x(sw, field::position), u(sw, field::displacement), m(sw, field::mass);
-  const double scale = rate * cell_size * cell_size;
+  const int points = grid.ghosted_count();
+  const double scale = rate * grid.cell_size() * grid.cell_size();
+  // A particle whose stencil reaches the functions that end at a contact
+  // face (two B-splines, one hat) moves along the face only: the particles
+  // sit almost on such a face (the contact closes on their gap) and crowd
+  // its functions; lifted off it, they fall back, and the lift's potential
+  // energy becomes motion at every step (docs/transfers.md#packing).
+  const int at_face = grid.shape() == ShapeKind::linear ? 1 : 2;
   double work = 0.0;
   largest_shift = 0.0;
   for (std::size_t p = 0; p < stencils.size(); ++p) {
     if (skip && (*skip)[p]) continue;
     const Stencil<dim>& st = stencils[p];
     Vector<dim> shift = Vector<dim>::Zero();
+    std::array<bool, dim> along_face{};
     for (int k = 0; k < st.count; ++k) {
+      for (int a = 0; a < dim; ++a)
+        along_face[a] = along_face[a] || (contact_faces[2 * a] && st.node[k][a] < at_face) ||
+                        (contact_faces[2 * a + 1] && st.node[k][a] >= grid.points()[a] - at_face);
       const double crowding = packing[st.local[k] % points] - (1.0 + kPackingTolerance);
       if (crowding > 0.0) shift -= scale * crowding * st.gradient[k];
     }
+    for (int a = 0; a < dim; ++a)
+      if (along_face[a]) shift[a] = 0.0;
     Eigen::Map<Vector<dim>>(x.data() + dim * p) += shift;
     Eigen::Map<Vector<dim>>(u.data() + dim * p) += shift;
     work -= m[p] * gravity.dot(shift);
@@ -303,10 +317,12 @@ template std::vector<double> particle_packing<2>(const Grid<2>&, const Particles
 template std::vector<double> particle_packing<3>(const Grid<3>&, const Particles<3>&,
                                                 const std::vector<Stencil<3>>&, const std::vector<int>&,
                                                 const std::array<bool, 6>&);
-template double correct_packing<2>(Particles<2>&, const std::vector<Stencil<2>>&, const std::vector<double>&, int,
-                                   double, double, const Vector<2>&, double&, const std::vector<char>*);
-template double correct_packing<3>(Particles<3>&, const std::vector<Stencil<3>>&, const std::vector<double>&, int,
-                                   double, double, const Vector<3>&, double&, const std::vector<char>*);
+template double correct_packing<2>(Particles<2>&, const std::vector<Stencil<2>>&, const std::vector<double>&,
+                                   const Grid<2>&, double, const Vector<2>&, double&, const std::vector<char>*,
+                                   const std::array<bool, 4>&);
+template double correct_packing<3>(Particles<3>&, const std::vector<Stencil<3>>&, const std::vector<double>&,
+                                   const Grid<3>&, double, const Vector<3>&, double&, const std::vector<char>*,
+                                   const std::array<bool, 6>&);
 template long count_inverting_particles<2>(const std::vector<Stencil<2>>&, const std::vector<double>&,
                                            const std::vector<double>&, double, double, const std::vector<char>*);
 template long count_inverting_particles<3>(const std::vector<Stencil<3>>&, const std::vector<double>&,

@@ -95,15 +95,17 @@ std::vector<double> particle_packing(const Grid<dim>& grid, const Particles<dim>
 // The packing correction (docs/transfers.md#packing): moves every particle by
 //   dx_p = -rate h^2 sum_i max(P_i - 1.05, 0) grad N_ip
 // (h the cell size), down the gradient of the crowding, with the stencils and
-// packing of the step's start. Positions and displacements only: mass,
-// velocity, F, J and the stress stay with the particle. Particles with
-// `skip[p]` stay. Returns this rank's work of gravity on the shift,
-// -sum_p m_p g . dx_p (the energy balance's correction_work), and sets
-// `largest_shift` to this rank's largest |dx_p|.
+// packing of the step's start; the functions that end at a contact face
+// (`contact_faces`: x_min, x_max, y_min, ...) push along the face only.
+// Positions and displacements only: mass, velocity, F, J and the stress stay
+// with the particle. Particles with `skip[p]` stay. Returns this rank's work
+// of gravity on the shift, -sum_p m_p g . dx_p (the energy balance's
+// correction_work), and sets `largest_shift` to this rank's largest |dx_p|.
 template <int dim>
 double correct_packing(Particles<dim>& particles, const std::vector<Stencil<dim>>& stencils,
-                       const std::vector<double>& packing, int points, double rate, double cell_size,
-                       const Vector<dim>& gravity, double& largest_shift, const std::vector<char>* skip = nullptr);
+                       const std::vector<double>& packing, const Grid<dim>& grid, double rate,
+                       const Vector<dim>& gravity, double& largest_shift, const std::vector<char>* skip = nullptr,
+                       const std::array<bool, 2 * dim>& contact_faces = {});
 
 // The particles whose neighbourhood the step would invert: those where
 // det(I + h grad v_theta) <= 0 (or is not a number), v_theta = theta v_new +
