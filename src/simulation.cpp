@@ -377,11 +377,15 @@ double Simulation<dim>::complete_step(const MomentumSystem<dim>& system, const s
   const std::vector<char>* skip = rigid_particle.empty() ? nullptr : &rigid_particle;
   // The packing of the step's start, before G2P changes the volumes.
   const double packing_rate = config_.transfer.packing_correction;
-  std::array<bool, 2 * dim> open_faces;
-  for (int f = 0; f < 2 * dim; ++f) open_faces[f] = config_.faces[f] == FaceCondition::free;
-  const std::vector<double> packing = packing_rate > 0
-                                          ? particle_packing(*grid_, *particles_, stencils, packing_lattice_, open_faces)
-                                          : std::vector<double>();
+  const auto faces_that_are = [&](FaceCondition condition) {
+    std::array<bool, 2 * dim> faces;
+    for (int f = 0; f < 2 * dim; ++f) faces[f] = config_.faces[f] == condition;
+    return faces;
+  };
+  const std::vector<double> packing =
+      packing_rate > 0
+          ? particle_packing(*grid_, *particles_, stencils, packing_lattice_, faces_that_are(FaceCondition::free))
+          : std::vector<double>();
   grid_to_particles(*particles_, stencils, system.end_velocity(), system.start_velocity(), fields.velocity, h,
                     theta, config_.transfer, skip);
   move_rigid_particles(*particles_, system.rigid_bodies(), system.rigid_motion(), h);
@@ -389,10 +393,8 @@ double Simulation<dim>::complete_step(const MomentumSystem<dim>& system, const s
     // Particles crowded beyond their volumes move apart (docs/transfers.md#packing);
     // gravity's work on the shift enters the energy balance as correction work.
     double largest = 0.0;
-    std::array<bool, 2 * dim> contact_faces;
-    for (int f = 0; f < 2 * dim; ++f) contact_faces[f] = config_.faces[f] == FaceCondition::frictional;
     correction_work_ += correct_packing(*particles_, stencils, packing, *grid_, packing_rate, gravity_, largest, skip,
-                                        contact_faces);
+                                        faces_that_are(FaceCondition::frictional));
   }
   commit_material_state(system);
   check_finite();

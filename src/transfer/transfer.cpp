@@ -187,6 +187,18 @@ long count_inverting_particles(const std::vector<Stencil<dim>>& stencils, const 
 // The largest volume ratio the packing counts (docs/transfers.md#packing).
 constexpr double kPackingVolumeRatioCap = 2.0;
 
+namespace {
+
+// Whether grid function `index` of `axis` ends at one of the listed faces
+// (x_min, x_max, y_min, ...): the two clamped B-splines or the hat there.
+template <int dim>
+bool ends_at_face(const Grid<dim>& grid, const std::array<bool, 2 * dim>& faces, int axis, int index) {
+  const int at_face = grid.shape() == ShapeKind::linear ? 1 : 2;
+  return (faces[2 * axis] && index < at_face) || (faces[2 * axis + 1] && index >= grid.points()[axis] - at_face);
+}
+
+}  // namespace
+
 template <int dim>
 std::vector<double> particle_packing(const Grid<dim>& grid, const Particles<dim>& particles,
                                      const std::vector<Stencil<dim>>& stencils, const std::vector<int>& lattice,
@@ -230,13 +242,10 @@ std::vector<double> particle_packing(const Grid<dim>& grid, const Particles<dim>
   // The functions that end at an open face (two B-splines, one hat) see the
   // material leaving through it as crowding: it is not counted, so the
   // correction never holds a body back from an open face.
-  const int at_face = grid.shape() == ShapeKind::linear ? 1 : 2;
   for (int i = 0; i < points; ++i) {
     const std::array<int, dim> ijk = grid.global_index(i);
     bool leaving = false;
-    for (int a = 0; a < dim; ++a)
-      leaving |= (open_faces[2 * a] && ijk[a] < at_face) ||
-                 (open_faces[2 * a + 1] && ijk[a] >= grid.points()[a] - at_face);
+    for (int a = 0; a < dim; ++a) leaving = leaving || ends_at_face(grid, open_faces, a, ijk[a]);
     if (leaving) {
       packing[i] = 0.0;
       continue;
@@ -267,7 +276,6 @@ double correct_packing(Particles<dim>& particles, const std::vector<Stencil<dim>
   // sit almost on such a face (the contact closes on their gap) and crowd
   // its functions; lifted off it, they fall back, and the lift's potential
   // energy becomes motion at every step (docs/transfers.md#packing).
-  const int at_face = grid.shape() == ShapeKind::linear ? 1 : 2;
   double work = 0.0;
   largest_shift = 0.0;
   for (std::size_t p = 0; p < stencils.size(); ++p) {
@@ -276,9 +284,7 @@ double correct_packing(Particles<dim>& particles, const std::vector<Stencil<dim>
     Vector<dim> shift = Vector<dim>::Zero();
     std::array<bool, dim> along_face{};
     for (int k = 0; k < st.count; ++k) {
-      for (int a = 0; a < dim; ++a)
-        along_face[a] = along_face[a] || (contact_faces[2 * a] && st.node[k][a] < at_face) ||
-                        (contact_faces[2 * a + 1] && st.node[k][a] >= grid.points()[a] - at_face);
+      for (int a = 0; a < dim; ++a) along_face[a] = along_face[a] || ends_at_face(grid, contact_faces, a, st.node[k][a]);
       const double crowding = packing[st.local[k] % points] - (1.0 + kPackingTolerance);
       if (crowding > 0.0) shift -= scale * crowding * st.gradient[k];
     }

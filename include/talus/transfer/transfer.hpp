@@ -95,8 +95,9 @@ std::vector<double> particle_packing(const Grid<dim>& grid, const Particles<dim>
 // The packing correction (docs/transfers.md#packing): moves every particle by
 //   dx_p = -rate h^2 sum_i max(P_i - 1.05, 0) grad N_ip
 // (h the cell size), down the gradient of the crowding, with the stencils and
-// packing of the step's start; the functions that end at a contact face
-// (`contact_faces`: x_min, x_max, y_min, ...) push along the face only.
+// packing of the step's start; a particle whose stencil reaches the
+// functions that end at a contact face (`contact_faces`: x_min, x_max,
+// y_min, ...) moves along that face only.
 // Positions and displacements only: mass, velocity, F, J and the stress stay
 // with the particle. Particles with `skip[p]` stay. Returns this rank's work
 // of gravity on the shift, -sum_p m_p g . dx_p (the energy balance's
