@@ -314,7 +314,7 @@ def main():
                    help="the particles' quadrature (grid.quadrature); default point")
     p.add_argument("--particles-per-cell", type=int, default=PPC, help="per axis; default 2")
     p.add_argument("--packing-correction", type=float, default=PACKING_CORRECTION,
-                   help="transfer.packing_correction (docs/transfers.md#packing); default: talus's (0, none)")
+                   help="transfer.packing_correction (docs/transfers.md#packing); default: talus's (0.25)")
     args = p.parse_args()
     globals()["PHI"] = args.friction_angle
     globals()["QUADRATURE"] = args.quadrature

@@ -384,7 +384,8 @@ double Simulation<dim>::complete_step(const MomentumSystem<dim>& system, const s
   };
   const std::vector<double> packing =
       packing_rate > 0
-          ? particle_packing(*grid_, *particles_, stencils, packing_lattice_, faces_that_are(FaceCondition::free))
+          ? particle_packing(*grid_, *particles_, stencils, packing_lattice_, faces_that_are(FaceCondition::free),
+                             fields.field_count)
           : std::vector<double>();
   grid_to_particles(*particles_, stencils, system.end_velocity(), system.start_velocity(), fields.velocity, h,
                     theta, config_.transfer, skip);
@@ -393,8 +394,10 @@ double Simulation<dim>::complete_step(const MomentumSystem<dim>& system, const s
     // Particles crowded beyond their volumes move apart (docs/transfers.md#packing);
     // gravity's work on the shift enters the energy balance as correction work.
     double largest = 0.0;
+    const std::vector<double> normals = contact_normals(system, fields.field_count);
     correction_work_ += correct_packing(*particles_, stencils, packing, *grid_, packing_rate, gravity_, largest, skip,
-                                        faces_that_are(FaceCondition::frictional));
+                                        faces_that_are(FaceCondition::frictional),
+                                        normals.empty() ? nullptr : &normals);
   }
   commit_material_state(system);
   check_finite();
@@ -402,6 +405,29 @@ double Simulation<dim>::complete_step(const MomentumSystem<dim>& system, const s
   particles_->migrate(*grid_);
   time_ += h;
   return seconds_since(t2);
+}
+
+// The unit normal of the step's contact points per ghosted node (dim values
+// each, 0 where there is none), complete on every rank; empty in a scene
+// without obstacles or bodies in contact. The packing correction moves the
+// particles next to them along the contact only: the contact closes on the
+// particles' gap, so they crowd its nodes, and a shift across it would be
+// undone by the next step's contact, turning the shift into motion
+// (docs/transfers.md#packing).
+template <int dim>
+std::vector<double> Simulation<dim>::contact_normals(const MomentumSystem<dim>& system, int field_count) const {
+  if (obstacles_.empty() && field_count == 1) return {};
+  std::vector<double> normals(static_cast<std::size_t>(field_count) * grid_->ghosted_count() * dim, 0.0);
+  const auto set = [&](int node, const Vector<dim>& n) {
+    Eigen::Map<Vector<dim>> slot(normals.data() + static_cast<std::size_t>(dim) * node);
+    if (slot.isZero()) slot = n.normalized();  // a hub paired with several bodies keeps the first
+  };
+  for (const ContactPoint<dim>& cp : system.contacts()) set(cp.point, cp.normal);
+  for (const BodyContactPoint<dim>& cp : system.body_contacts()) {
+    set(cp.node_a, cp.normal);
+    set(cp.node_b, cp.normal);
+  }
+  return grid_->sum_over_ranks(normals, field_count, dim);
 }
 
 // Per local particle: 1 if it belongs to a rigid body; empty without rigid bodies.

@@ -52,7 +52,8 @@ Totals<dim> grid_totals(const Grid<dim>& grid, const std::vector<double>& mass, 
 // particles per cell and axis, at rest.
 template <int dim>
 void fill_grid_box(const Grid<dim>& grid, const Vector<dim>& hi, Particles<dim>& particles,
-                   const Vector<dim>& lo = Vector<dim>::Zero(), int particles_per_cell = 2) {
+                   const Vector<dim>& lo = Vector<dim>::Zero(), int particles_per_cell = 2, int body_index = 0,
+                   std::int64_t first_id = 0) {
   BodyConfig bc;
   bc.box_lower.assign(lo.data(), lo.data() + dim);
   bc.box_upper.assign(hi.data(), hi.data() + dim);
@@ -66,7 +67,7 @@ void fill_grid_box(const Grid<dim>& grid, const Vector<dim>& hi, Particles<dim>&
     const Tangent& elastic_stiffness() const override { static Tangent t = Tangent::Identity(); return t; }
     std::string parameters() const override { return "model: dummy"; }
   } dummy;
-  seed_body<dim>(particles, grid, bc, dummy, 0, 0);
+  seed_body<dim>(particles, grid, bc, dummy, body_index, first_id);
 }
 
 template <int dim>
@@ -430,6 +431,39 @@ void check_shift_closed_form(ShapeKind kind) {
   CHECK(worst < 1e-15 * 1e3);
   CHECK(along > 0);
   CHECK(free > 0);
+
+  // With contact points of an obstacle or another body (a slanted normal n
+  // at the nodes of the first four columns), the particles whose stencils
+  // reach one move without the shift's component along n; the others as
+  // before.
+  {
+    FieldView<PetscReal> x(particles.swarm(), field::position), u(particles.swarm(), field::displacement);
+    std::copy(x0.begin(), x0.end(), x.data());
+    std::copy(u0.begin(), u0.end(), u.data());
+  }
+  const Vector<dim> normal = Vector<dim>::LinSpaced(1.0, 2.0).normalized();
+  std::vector<double> normals(static_cast<std::size_t>(dim) * grid.ghosted_count(), 0.0);
+  for (int i = 0; i < grid.ghosted_count(); ++i)
+    if (grid.global_index(i)[0] < 4) Eigen::Map<Vector<dim>>(normals.data() + dim * i) = normal;
+  correct_packing(particles, stencils, packing, grid, rate, g, largest, nullptr, {}, &normals);
+  worst = 0.0;
+  along = free = 0;
+  {
+    FieldView<PetscReal> x(particles.swarm(), field::position);
+    for (PetscInt p = 0; p < n; ++p) {
+      bool reaches = false;
+      for (int k = 0; k < stencils[p].count; ++k) reaches = reaches || stencils[p].node[k][0] < 4;
+      ++(reaches ? along : free);
+      const Vector<dim> e = reaches ? Vector<dim>(expected - expected.dot(normal) * normal) : expected;
+      for (int k = 0; k < dim; ++k) worst = std::max(worst, std::abs(x[dim * p + k] - x0[dim * p + k] - e[k]));
+    }
+  }
+  MPI_Allreduce(MPI_IN_PLACE, &worst, 1, MPI_DOUBLE, MPI_MAX, grid.comm());
+  MPI_Allreduce(MPI_IN_PLACE, &along, 1, MPI_LONG, MPI_SUM, grid.comm());
+  MPI_Allreduce(MPI_IN_PLACE, &free, 1, MPI_LONG, MPI_SUM, grid.comm());
+  CHECK(worst < 1e-15 * 1e3);
+  CHECK(along > 0);
+  CHECK(free > 0);
 }
 
 // A block whose particles were crowded into 0.8 of their space per axis
@@ -437,6 +471,50 @@ void check_shift_closed_form(ShapeKind kind) {
 // until no point is crowded beyond the 5 % tolerance, the block's extent
 // grows by the factor its volume asks, and a body that is not crowded (the
 // lattice as seeded, packing at most 33/32) does not move at all.
+// Bodies in contact each read their own packing: a second lattice seeded on
+// the lower half of the first reads 2 there on one field (the space holds
+// twice its volume) and at most 1 on each of two fields, so the correction
+// never pushes two bodies apart across their contact (which closes on their
+// particles' gap); on one field it would (the crowding's gradient at the
+// second lattice's top moves its particles by about rate h (P - 1.05) = 0.02).
+template <int dim>
+void check_packing_per_field() {
+  Vector<dim> hi, half;
+  if constexpr (dim == 2) hi << 1.0, 0.8; else hi << 0.6, 0.5, 0.4;
+  half = hi;
+  half[dim - 1] *= 0.5;
+  Grid<dim> grid(PETSC_COMM_WORLD, Vector<dim>::Zero(), hi, 0.1, ShapeKind::quadratic_bspline,
+                 ParticleQuadrature::point);
+  Particles<dim> particles(grid.comm());
+  fill_grid_box(grid, hi, particles, Vector<dim>(Vector<dim>::Zero()), 2, 0, 0);
+  fill_grid_box(grid, half, particles, Vector<dim>(Vector<dim>::Zero()), 2, 1, 1000000);
+  particles.migrate(grid);
+  std::vector<Stencil<dim>> together, apart;
+  compute_stencils(grid, particles, together);
+  compute_stencils(grid, particles, apart, {0, 1});
+  const std::vector<double> one_field = particle_packing(grid, particles, together, {2, 2});
+  const std::vector<double> two_fields = particle_packing(grid, particles, apart, {2, 2}, {}, 2);
+  const int points = grid.ghosted_count();
+  REQUIRE(static_cast<int>(two_fields.size()) == 2 * points);
+  double first = 0.0, second = 0.0;
+  for (int i = 0; i < points; ++i) {
+    first = std::max(first, std::abs(two_fields[i] - 1.0));
+    second = std::max(second, two_fields[points + i]);
+  }
+  MPI_Allreduce(MPI_IN_PLACE, &first, 1, MPI_DOUBLE, MPI_MAX, grid.comm());
+  MPI_Allreduce(MPI_IN_PLACE, &second, 1, MPI_DOUBLE, MPI_MAX, grid.comm());
+  CHECK(first < 1e-12);
+  CHECK(second < 1.0 + 1e-12);
+  CHECK(std::abs(owned_max(grid, one_field) - 2.0) < 1e-12);
+  double largest = 0.0;
+  correct_packing<dim>(particles, apart, two_fields, grid, 0.25, Vector<dim>::Zero(), largest);
+  MPI_Allreduce(MPI_IN_PLACE, &largest, 1, MPI_DOUBLE, MPI_MAX, grid.comm());
+  CHECK(largest == 0.0);
+  correct_packing<dim>(particles, together, one_field, grid, 0.25, Vector<dim>::Zero(), largest);
+  MPI_Allreduce(MPI_IN_PLACE, &largest, 1, MPI_DOUBLE, MPI_MAX, grid.comm());
+  CHECK(largest > 0.01);
+}
+
 template <int dim>
 void check_crowded_block_relaxes(double rate) {
   Vector<dim> hi, lo, top;
@@ -506,6 +584,11 @@ TEST_CASE("the packing of a lattice filling the grid has its closed form", "[tra
   check_packing_closed_form<3>(ShapeKind::quadratic_bspline);
   check_packing_closed_form<2>(ShapeKind::linear);
   check_packing_closed_form<3>(ShapeKind::linear);
+}
+
+TEST_CASE("bodies in contact each read their own packing", "[transfer][packing][mpi]") {
+  check_packing_per_field<2>();
+  check_packing_per_field<3>();
 }
 
 TEST_CASE("a lattice's rule on the grid functions' integrals has its closed form", "[transfer][packing]") {

@@ -188,6 +188,7 @@ class Simulation {
   std::pair<double, double> motion_extremes() const;
   void check_finite() const;
   std::vector<char> rigid_particles(const MomentumSystem<dim>& system) const;
+  std::vector<double> contact_normals(const MomentumSystem<dim>& system, int field_count) const;
   void repartition(const Ownership<dim>& ownership);
   // last_acceleration_ to and from a checkpoint's rows (RunState).
   void store_last_acceleration(RunState& state) const;

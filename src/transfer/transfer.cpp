@@ -202,9 +202,9 @@ bool ends_at_face(const Grid<dim>& grid, const std::array<bool, 2 * dim>& faces,
 template <int dim>
 std::vector<double> particle_packing(const Grid<dim>& grid, const Particles<dim>& particles,
                                      const std::vector<Stencil<dim>>& stencils, const std::vector<int>& lattice,
-                                     const std::array<bool, 2 * dim>& open_faces) {
+                                     const std::array<bool, 2 * dim>& open_faces, int field_count) {
   const int points = grid.ghosted_count();
-  std::vector<double> packing(static_cast<std::size_t>(points), 0.0);
+  std::vector<double> packing(static_cast<std::size_t>(field_count) * points, 0.0);
   // Per body seeded on a lattice, per axis: its rule's ratio to the exact
   // integrals, by which its particles' weights are divided, so that a body as
   // seeded reads 1 at a face too (15/16 and 33/32 per axis there otherwise,
@@ -227,17 +227,19 @@ std::vector<double> particle_packing(const Grid<dim>& grid, const Particles<dim>
       const double volume = V0[p] * std::min(J[p], kPackingVolumeRatioCap);
       const std::size_t b = static_cast<std::size_t>(body[p]);
       const bool on_lattice = b < rule.size() && !rule[b][0].empty();
-      // With bodies in contact the stencil indexes its body's field: the
-      // packing is that of space, all fields together.
+      // With bodies in contact the stencil indexes its body's field: each
+      // body reads its own packing, so that two bodies pressed together by
+      // their contact (which closes on their particles' gap) are not read as
+      // crowding and pushed apart across it.
       for (int k = 0; k < st.count; ++k) {
         double weight = st.weight[k];
         if (on_lattice)
           for (int a = 0; a < dim; ++a) weight /= rule[b][a][st.node[k][a]];
-        packing[st.local[k] % points] += volume * weight;
+        packing[st.local[k]] += volume * weight;
       }
     }
   }
-  packing = grid.sum_over_ranks(packing, 1, 1);
+  packing = grid.sum_over_ranks(packing, field_count, 1);
   const double cell_volume = std::pow(grid.cell_size(), dim);
   // The functions that end at an open face (two B-splines, one hat) see the
   // material leaving through it as crowding: it is not counted, so the
@@ -246,13 +248,12 @@ std::vector<double> particle_packing(const Grid<dim>& grid, const Particles<dim>
     const std::array<int, dim> ijk = grid.global_index(i);
     bool leaving = false;
     for (int a = 0; a < dim; ++a) leaving = leaving || ends_at_face(grid, open_faces, a, ijk[a]);
-    if (leaving) {
-      packing[i] = 0.0;
-      continue;
-    }
     double capacity = cell_volume;
     for (int a = 0; a < dim; ++a) capacity *= basis_integral(grid.shape(), ijk[a], grid.cells()[a]);
-    packing[i] /= capacity;
+    for (int f = 0; f < field_count; ++f) {
+      double& node = packing[static_cast<std::size_t>(f) * points + i];
+      node = leaving ? 0.0 : node / capacity;
+    }
   }
   return packing;
 }
@@ -266,13 +267,13 @@ template <int dim>
 double correct_packing(Particles<dim>& particles, const std::vector<Stencil<dim>>& stencils,
                        const std::vector<double>& packing, const Grid<dim>& grid, double rate,
                        const Vector<dim>& gravity, double& largest_shift, const std::vector<char>* skip,
-                       const std::array<bool, 2 * dim>& contact_faces) {
+                       const std::array<bool, 2 * dim>& contact_faces, const std::vector<double>* contact_normals) {
   DM sw = particles.swarm();
   FieldView<PetscReal> x(sw, field::position), u(sw, field::displacement), m(sw, field::mass);
-  const int points = grid.ghosted_count();
   const double scale = rate * grid.cell_size() * grid.cell_size();
   // A particle whose stencil reaches the functions that end at a contact
-  // face (two B-splines, one hat) moves along the face only: the particles
+  // face (two B-splines, one hat), or a contact point of an obstacle or of
+  // another body, moves along the face only: the particles
   // sit almost on such a face (the contact closes on their gap) and crowd
   // its functions; lifted off it, they fall back, and the lift's potential
   // energy becomes motion at every step (docs/transfers.md#packing).
@@ -285,11 +286,18 @@ double correct_packing(Particles<dim>& particles, const std::vector<Stencil<dim>
     std::array<bool, dim> along_face{};
     for (int k = 0; k < st.count; ++k) {
       for (int a = 0; a < dim; ++a) along_face[a] = along_face[a] || ends_at_face(grid, contact_faces, a, st.node[k][a]);
-      const double crowding = packing[st.local[k] % points] - (1.0 + kPackingTolerance);
+      const double crowding = packing[st.local[k]] - (1.0 + kPackingTolerance);
       if (crowding > 0.0) shift -= scale * crowding * st.gradient[k];
     }
     for (int a = 0; a < dim; ++a)
       if (along_face[a]) shift[a] = 0.0;
+    // The same along an obstacle or another body: the shift loses its
+    // component along the normal of every contact point in the stencil.
+    if (contact_normals)
+      for (int k = 0; k < st.count; ++k) {
+        const Eigen::Map<const Vector<dim>> normal(contact_normals->data() + dim * st.local[k]);
+        if (normal.squaredNorm() > 0.5) shift -= shift.dot(normal) * normal;
+      }
     Eigen::Map<Vector<dim>>(x.data() + dim * p) += shift;
     Eigen::Map<Vector<dim>>(u.data() + dim * p) += shift;
     work -= m[p] * gravity.dot(shift);
@@ -319,16 +327,16 @@ template void grid_to_particles<3>(Particles<3>&, const std::vector<Stencil<3>>&
 
 template std::vector<double> particle_packing<2>(const Grid<2>&, const Particles<2>&,
                                                 const std::vector<Stencil<2>>&, const std::vector<int>&,
-                                                const std::array<bool, 4>&);
+                                                const std::array<bool, 4>&, int);
 template std::vector<double> particle_packing<3>(const Grid<3>&, const Particles<3>&,
                                                 const std::vector<Stencil<3>>&, const std::vector<int>&,
-                                                const std::array<bool, 6>&);
+                                                const std::array<bool, 6>&, int);
 template double correct_packing<2>(Particles<2>&, const std::vector<Stencil<2>>&, const std::vector<double>&,
                                    const Grid<2>&, double, const Vector<2>&, double&, const std::vector<char>*,
-                                   const std::array<bool, 4>&);
+                                   const std::array<bool, 4>&, const std::vector<double>*);
 template double correct_packing<3>(Particles<3>&, const std::vector<Stencil<3>>&, const std::vector<double>&,
                                    const Grid<3>&, double, const Vector<3>&, double&, const std::vector<char>*,
-                                   const std::array<bool, 6>&);
+                                   const std::array<bool, 6>&, const std::vector<double>*);
 template long count_inverting_particles<2>(const std::vector<Stencil<2>>&, const std::vector<double>&,
                                            const std::vector<double>&, double, double, const std::vector<char>*);
 template long count_inverting_particles<3>(const std::vector<Stencil<3>>&, const std::vector<double>&,

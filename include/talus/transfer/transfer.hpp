@@ -85,19 +85,24 @@ void grid_to_particles(Particles<dim>& particles, const std::vector<Stencil<dim>
 // faces too. At an open face (open_faces: x_min, x_max, y_min, ...) the
 // functions that end there read 0. 1 inside a body whose particles fill the space
 // their volumes claim, below 1 at its surface, above 1 where the positions
-// have crowded together while the volumes J_p V0_p have not shrunk. Complete
-// on owned and ghost points (summed over the ranks and the velocity fields).
+// have crowded together while the volumes J_p V0_p have not shrunk. Per node
+// of the stencils' `field_count` velocity fields (bodies in contact each read
+// their own packing), complete on owned and ghost points (summed over the
+// ranks).
 template <int dim>
 std::vector<double> particle_packing(const Grid<dim>& grid, const Particles<dim>& particles,
                                      const std::vector<Stencil<dim>>& stencils, const std::vector<int>& lattice = {},
-                                     const std::array<bool, 2 * dim>& open_faces = {});
+                                     const std::array<bool, 2 * dim>& open_faces = {}, int field_count = 1);
 
 // The packing correction (docs/transfers.md#packing): moves every particle by
 //   dx_p = -rate h^2 sum_i max(P_i - 1.05, 0) grad N_ip
 // (h the cell size), down the gradient of the crowding, with the stencils and
 // packing of the step's start; a particle whose stencil reaches the
 // functions that end at a contact face (`contact_faces`: x_min, x_max,
-// y_min, ...) moves along that face only.
+// y_min, ...) moves along that face only, and one whose stencil reaches a
+// node with a contact normal (`contact_normals`: dim values per node of the
+// stencils' fields, a unit normal where an obstacle or another body is in
+// contact, 0 elsewhere) loses the shift's component along that normal.
 // Positions and displacements only: mass, velocity, F, J and the stress stay
 // with the particle. Particles with `skip[p]` stay. Returns this rank's work
 // of gravity on the shift, -sum_p m_p g . dx_p (the energy balance's
@@ -106,7 +111,8 @@ template <int dim>
 double correct_packing(Particles<dim>& particles, const std::vector<Stencil<dim>>& stencils,
                        const std::vector<double>& packing, const Grid<dim>& grid, double rate,
                        const Vector<dim>& gravity, double& largest_shift, const std::vector<char>* skip = nullptr,
-                       const std::array<bool, 2 * dim>& contact_faces = {});
+                       const std::array<bool, 2 * dim>& contact_faces = {},
+                       const std::vector<double>* contact_normals = nullptr);
 
 // The particles whose neighbourhood the step would invert: those where
 // det(I + h grad v_theta) <= 0 (or is not a number), v_theta = theta v_new +
