@@ -399,71 +399,61 @@ void check_shift_closed_form(ShapeKind kind) {
   CHECK(largest == Approx(expected.norm()).epsilon(1e-10));
   CHECK(work == Approx(-mass * g.dot(expected)).epsilon(1e-10));
 
+  // After a restricted shift, the particles whose stencil reaches a node
+  // with `reaches` moved by `restricted(expected)`, the others as before.
+  const auto reset = [&]() {
+    FieldView<PetscReal> x(particles.swarm(), field::position), u(particles.swarm(), field::displacement);
+    std::copy(x0.begin(), x0.end(), x.data());
+    std::copy(u0.begin(), u0.end(), u.data());
+  };
+  const auto check_restricted = [&](auto reaches_node, auto restricted) {
+    double off = 0.0;
+    long along = 0, free = 0;
+    {
+      FieldView<PetscReal> x(particles.swarm(), field::position);
+      for (PetscInt p = 0; p < n; ++p) {
+        bool reaches = false;
+        for (int k = 0; k < stencils[p].count; ++k) reaches = reaches || reaches_node(stencils[p].node[k]);
+        ++(reaches ? along : free);
+        const Vector<dim> e = reaches ? restricted(expected) : expected;
+        for (int k = 0; k < dim; ++k) off = std::max(off, std::abs(x[dim * p + k] - x0[dim * p + k] - e[k]));
+      }
+    }
+    MPI_Allreduce(MPI_IN_PLACE, &off, 1, MPI_DOUBLE, MPI_MAX, grid.comm());
+    MPI_Allreduce(MPI_IN_PLACE, &along, 1, MPI_LONG, MPI_SUM, grid.comm());
+    MPI_Allreduce(MPI_IN_PLACE, &free, 1, MPI_LONG, MPI_SUM, grid.comm());
+    CHECK(off < 1e-15 * 1e3);
+    CHECK(along > 0);
+    CHECK(free > 0);
+  };
+
   // With a contact floor (y_min, or z_min in 3D), the particles whose
   // stencils reach its functions (the first cell and a half above it for
   // the B-splines, the first cell for the hats) move along it only: the same
   // shift without its vertical component; the others as before.
-  {
-    FieldView<PetscReal> x(particles.swarm(), field::position), u(particles.swarm(), field::displacement);
-    std::copy(x0.begin(), x0.end(), x.data());
-    std::copy(u0.begin(), u0.end(), u.data());
-  }
+  reset();
   std::array<bool, 2 * dim> contact{};
   contact[2 * (dim - 1)] = true;
   correct_packing(particles, stencils, packing, grid, rate, g, largest, nullptr, contact);
   const int at_face = kind == ShapeKind::linear ? 1 : 2;
-  worst = 0.0;
-  long along = 0, free = 0;
-  {
-    FieldView<PetscReal> x(particles.swarm(), field::position);
-    for (PetscInt p = 0; p < n; ++p) {
-      bool reaches = false;
-      for (int k = 0; k < stencils[p].count; ++k) reaches = reaches || stencils[p].node[k][dim - 1] < at_face;
-      ++(reaches ? along : free);
-      Vector<dim> e = expected;
-      if (reaches) e[dim - 1] = 0.0;
-      for (int k = 0; k < dim; ++k) worst = std::max(worst, std::abs(x[dim * p + k] - x0[dim * p + k] - e[k]));
-    }
-  }
-  MPI_Allreduce(MPI_IN_PLACE, &worst, 1, MPI_DOUBLE, MPI_MAX, grid.comm());
-  MPI_Allreduce(MPI_IN_PLACE, &along, 1, MPI_LONG, MPI_SUM, grid.comm());
-  MPI_Allreduce(MPI_IN_PLACE, &free, 1, MPI_LONG, MPI_SUM, grid.comm());
-  CHECK(worst < 1e-15 * 1e3);
-  CHECK(along > 0);
-  CHECK(free > 0);
+  check_restricted([&](const auto& node) { return node[dim - 1] < at_face; },
+                   [](Vector<dim> e) {
+                     e[dim - 1] = 0.0;
+                     return e;
+                   });
 
   // With contact points of an obstacle or another body (a slanted normal n
   // at the nodes of the first four columns), the particles whose stencils
   // reach one move without the shift's component along n; the others as
   // before.
-  {
-    FieldView<PetscReal> x(particles.swarm(), field::position), u(particles.swarm(), field::displacement);
-    std::copy(x0.begin(), x0.end(), x.data());
-    std::copy(u0.begin(), u0.end(), u.data());
-  }
+  reset();
   const Vector<dim> normal = Vector<dim>::LinSpaced(1.0, 2.0).normalized();
   std::vector<double> normals(static_cast<std::size_t>(dim) * grid.ghosted_count(), 0.0);
   for (int i = 0; i < grid.ghosted_count(); ++i)
     if (grid.global_index(i)[0] < 4) Eigen::Map<Vector<dim>>(normals.data() + dim * i) = normal;
   correct_packing(particles, stencils, packing, grid, rate, g, largest, nullptr, {}, &normals);
-  worst = 0.0;
-  along = free = 0;
-  {
-    FieldView<PetscReal> x(particles.swarm(), field::position);
-    for (PetscInt p = 0; p < n; ++p) {
-      bool reaches = false;
-      for (int k = 0; k < stencils[p].count; ++k) reaches = reaches || stencils[p].node[k][0] < 4;
-      ++(reaches ? along : free);
-      const Vector<dim> e = reaches ? Vector<dim>(expected - expected.dot(normal) * normal) : expected;
-      for (int k = 0; k < dim; ++k) worst = std::max(worst, std::abs(x[dim * p + k] - x0[dim * p + k] - e[k]));
-    }
-  }
-  MPI_Allreduce(MPI_IN_PLACE, &worst, 1, MPI_DOUBLE, MPI_MAX, grid.comm());
-  MPI_Allreduce(MPI_IN_PLACE, &along, 1, MPI_LONG, MPI_SUM, grid.comm());
-  MPI_Allreduce(MPI_IN_PLACE, &free, 1, MPI_LONG, MPI_SUM, grid.comm());
-  CHECK(worst < 1e-15 * 1e3);
-  CHECK(along > 0);
-  CHECK(free > 0);
+  check_restricted([](const auto& node) { return node[0] < 4; },
+                   [&](const Vector<dim>& e) { return Vector<dim>(e - e.dot(normal) * normal); });
 }
 
 // A block whose particles were crowded into 0.8 of their space per axis
