@@ -348,6 +348,7 @@ RunSummary Simulation<dim>::run_steps(std::ostream* progress, const ProgressOpti
     summary.multigrid_fallbacks += r.newton.multigrid_fallback;
     summary.factorizations += r.newton.factorizations;
     summary.jacobian_matrices += r.newton.jacobian_matrices;
+    summary.contact_resolves += r.contact_resolves;
     if (!r.converged) {
       ++summary.cutbacks;
       summary.inverting_cutbacks += r.inverting_particles > 0;

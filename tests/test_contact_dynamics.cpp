@@ -507,3 +507,49 @@ TEST_CASE("a wall holding a layer at rest with steps of 1 s: the same contact po
     if (k > 0) CHECK(quasi_static[k].loaded == settled);
   }
 }
+
+// The same wall a round-off away from the layer (x = 0.8 + 0.025 in floating
+// point, 1e-16 m beyond the layer's face): the layer's gap is open at t = 0,
+// so no contact point is predicted; its stress pushes it 5e-4 m across the
+// wall within the first step of 1 s. Before the missed contact points were
+// solved again, the velocity-level condition then held it there, relieved,
+// and the wall carried 0.03 N/m for good (100 % low). Now the first step is
+// solved again with the crossed points as contact points, whose open gap
+// closes within the step, and the wall carries the earth pressure at every
+// step.
+TEST_CASE("a wall a round-off away from a layer at rest with steps of 1 s carries the earth pressure from the first step", "[contact]") {
+  const double H = 1.0, rho = 2000, nu = 0.3, K0 = nu / (1 - nu);
+  const double expected = K0 * rho * g * H * H / 2;
+  const double x_wall = 0.8 + 0.025;  // 0.8250000000000001
+  REQUIRE(x_wall > 0.825);
+  std::ostringstream yaml;
+  yaml.precision(17);
+  yaml << "grid: {lower: [0, 0], upper: [1.2, 1.2], cell_size: 0.05}\n"
+          "time: {end: 20, step: 1}\n"
+          "output: {enabled: false}\n"
+          "gravity: [0, -9.81]\n"
+          "materials: [{name: soil, model: linear_elastic, density: 2000, youngs_modulus: 1.0e7, poisson_ratio: 0.3}]\n"
+          "bodies: [{name: layer, material: soil, box: {lower: [0, 0], upper: [0.825, 1.0]}, initial_stress: geostatic}]\n"
+          "boundaries: {x_min: slip, x_max: free, y_min: slip, y_max: free}\n";
+  CaseConfig c = testing::case_from_yaml(yaml.str());
+  ObstacleConfig wall;
+  wall.name = "wall";
+  wall.point = {x_wall, 0.0};
+  wall.normal = {-1.0, 0.0};
+  wall.velocity = {0.0, 0.0};
+  wall.friction = 0.0;
+  c.obstacles.push_back(wall);
+  Simulation<2> sim(c, PETSC_COMM_SELF);
+  for (int k = 0; k < 20; ++k) {
+    const StepReport r = sim.advance(1.0);
+    REQUIRE(r.converged);
+    const double force = -sim.obstacle_forces()[0][0];
+    INFO("step " << k << ": wall force " << force << " N/m (closed form " << expected << "), solved again "
+                 << r.contact_resolves << " times");
+    // Measured: 4161.18 N/m at every step, the touching wall's force on this
+    // grid (1.02 % below the closed form, first order in the cell, as in the
+    // earth-pressure test above) to 1e-8; one re-solve in the first step.
+    CHECK(std::abs(force - expected) <= 0.011 * expected);
+    CHECK(r.contact_resolves == (k == 0 ? 1 : 0));
+  }
+}

@@ -36,6 +36,10 @@ struct StepReport {
   // Global number of particles the converged step would invert, det(I + h grad v) <= 0
   // (the step is then not accepted; docs/solver.md#inverting-steps).
   long inverting_particles = 0;
+  // Times the step was solved again because its material crossed an
+  // obstacle at grid points that were not contact points
+  // (docs/contact.md#which-grid-points-are-contact-points).
+  long contact_resolves = 0;
 };
 
 // How a run ended: at time.end, on SIGINT/SIGTERM (after a step, with a
@@ -66,6 +70,7 @@ struct RunSummary {
   long direct_fallbacks = 0;      // steps solved again by LU after a failed linear solve
   long multigrid_fallbacks = 0;   // ... above the LU's limit, solved again on geometric multigrid
   long inverting_cutbacks = 0;    // cut-backs of converged steps that would invert a particle (docs/solver.md#inverting-steps)
+  long contact_resolves = 0;      // steps solved again with the contact points their material crossed (docs/contact.md)
   long factorizations = 0;        // numeric LU factorizations with reused factors (docs/solver.md#reused-factorizations)
   long jacobian_matrices = 0;     // Jacobian matrices assembled (docs/solver.md#the-jacobian-as-an-operator)
   // Balanced ranks (docs/parallel.md): grid re-partitions during the run, the
@@ -261,6 +266,11 @@ class Simulation {
   // step's acceleration at this rank's owned active points (ghosted layout,
   // NaN elsewhere; empty before the first step and after a re-partition).
   std::vector<double> last_acceleration_;
+  // Grid points (of the step's fields) whose material crossed an obstacle
+  // in the last attempt of the step: contact points of the next attempt
+  // whatever their predicted gap; and how many attempts are under way.
+  std::vector<char> forced_contacts_;
+  int contact_resolve_depth_ = 0;
   // True during the equilibrium stage: advance() then takes theta = 1, starts
   // Newton from rest, and commits only the stresses (no motion, no energy).
   bool equilibrium_stage_ = false;

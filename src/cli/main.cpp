@@ -123,7 +123,7 @@ void print_summary(const talus::CaseConfig& config, const talus::RunSummary& s, 
               << ", \"equilibrium_unbalance\": " << s.equilibrium_unbalance
               << ", \"equilibrium_gravity_work\": " << s.equilibrium_gravity_work
               << ", \"direct_fallbacks\": " << s.direct_fallbacks
-              << ", \"multigrid_fallbacks\": " << s.multigrid_fallbacks << ", \"inverting_cutbacks\": " << s.inverting_cutbacks << ", \"factorizations\": " << s.factorizations
+              << ", \"multigrid_fallbacks\": " << s.multigrid_fallbacks << ", \"inverting_cutbacks\": " << s.inverting_cutbacks << ", \"contact_resolves\": " << s.contact_resolves << ", \"factorizations\": " << s.factorizations
               << ", \"jacobian_matrices\": " << s.jacobian_matrices
               << ", \"ranks\": " << s.final_load.ranks << ", \"rebalances\": " << s.rebalances
               << ", \"worst_imbalance\": " << s.worst_imbalance << ", \"final_min_rank_particles\": "

@@ -74,13 +74,16 @@ std::vector<double> node_maximum(const Grid<dim>& grid, const std::vector<Stenci
 template <int dim>
 std::vector<double> material_gaps(const Grid<dim>& grid, const Particles<dim>& particles,
                                   const std::vector<Stencil<dim>>& stencils, const GridFields<dim>& fields,
-                                  const Obstacle<dim>& obstacle, double time, const std::vector<int>& rigid_of_field) {
+                                  const Obstacle<dim>& obstacle, double time, const std::vector<int>& rigid_of_field,
+                                  const std::vector<double>* displacement = nullptr) {
   FieldView<PetscReal> x(particles.swarm(), field::position), v0(particles.swarm(), field::initial_volume);
   std::vector<double> particle_gap(stencils.size());
   std::vector<Vector<dim>> particle_normal(rigid_of_field.empty() ? 0 : stencils.size());
   const int points = grid.ghosted_count();
   for (std::size_t p = 0; p < stencils.size(); ++p) {
-    const ObstacleGap<dim> g = obstacle.gap(Eigen::Map<const Vector<dim>>(x.data() + dim * p), time);
+    Vector<dim> xp = Eigen::Map<const Vector<dim>>(x.data() + dim * p);
+    if (displacement) xp += Eigen::Map<const Vector<dim>>(displacement->data() + dim * p);
+    const ObstacleGap<dim> g = obstacle.gap(xp, time);
     particle_gap[p] = g.gap - 0.5 * std::pow(v0[p], 1.0 / dim);
     if (!particle_normal.empty()) particle_normal[p] = g.normal;
   }
@@ -143,13 +146,15 @@ std::vector<ContactPoint<dim>> find_contact_candidates(const Grid<dim>& grid, co
                                                        const GridFields<dim>& fields, const ActiveSet<dim>& active,
                                                        const std::vector<Obstacle<dim>>& obstacles, double time,
                                                        double h, double gap_prediction,
-                                                       const std::vector<int>& rigid_of_field) {
+                                                       const std::vector<int>& rigid_of_field,
+                                                       const std::vector<char>* forced,
+                                                       const std::vector<double>* displacement) {
   std::vector<ContactPoint<dim>> contacts;
   if (obstacles.empty() && rigid_of_field.empty()) return contacts;
   std::vector<std::vector<double>> gaps;
   std::vector<std::vector<double>> surfaces;
   for (const Obstacle<dim>& o : obstacles) {
-    gaps.push_back(material_gaps(grid, particles, stencils, fields, o, time, rigid_of_field));
+    gaps.push_back(material_gaps(grid, particles, stencils, fields, o, time, rigid_of_field, displacement));
     if (!rigid_of_field.empty())
       surfaces.push_back(rigid_surface_points(grid, particles, stencils, fields, o, time, rigid_of_field, gaps.back()));
   }
@@ -169,6 +174,7 @@ std::vector<ContactPoint<dim>> find_contact_candidates(const Grid<dim>& grid, co
     if (constrained == dim && rigid < 0) continue;
     const Vector<dim> x = grid.point_position(grid.global_index(fields.point_of(i)));
     const Vector<dim> v = Eigen::Map<const Vector<dim>>(fields.velocity.data() + static_cast<std::size_t>(dim) * i);
+    const bool force = forced && (*forced)[i];
     double best = std::numeric_limits<double>::infinity();
     ContactPoint<dim> cp;
     for (std::size_t o = 0; o < obstacles.size(); ++o) {
@@ -186,10 +192,13 @@ std::vector<ContactPoint<dim>> find_contact_candidates(const Grid<dim>& grid, co
       if (!compatible && rigid < 0) continue;
       const double un = (v - obstacles[o].velocity()).dot(g.normal);
       // A closed gap is a candidate whatever its velocity (Moreau's sweeping
-      // process); an open one when it is predicted to close within the step.
-      // Candidates that separate get r = 0 from the natural map itself.
+      // process); an open one when it is predicted to close within the step,
+      // or when its material crossed the obstacle in an attempt of the step
+      // without it (`forced`). Candidates that separate get r = 0 from the
+      // natural map itself; an open gap may close within the step
+      // (contact_rows.cpp).
       const double predicted = g.gap + gap_prediction * h * std::min(un, 0.0);
-      if (predicted <= 0.0 && predicted < best) {
+      if ((predicted <= 0.0 || force) && predicted < best) {
         best = predicted;
         cp.point = i;
         cp.row = static_cast<PetscInt>(dim * k);
@@ -203,6 +212,7 @@ std::vector<ContactPoint<dim>> find_contact_candidates(const Grid<dim>& grid, co
         cp.rho = fields.mass[i];
         cp.free = free;
         cp.rigid = rigid;
+        cp.closes_gap = force && rigid < 0 && g.gap > 0.0;
         if (rigid >= 0) cp.surface = Eigen::Map<const Vector<dim>>(surfaces[o].data() + static_cast<std::size_t>(dim) * i);
       }
     }
@@ -386,10 +396,12 @@ template std::vector<BodyContactPoint<3>> find_body_contacts(const Grid<3>&, con
 template std::vector<ContactPoint<2>> find_contact_candidates(const Grid<2>&, const Particles<2>&,
                                                               const std::vector<Stencil<2>>&, const GridFields<2>&,
                                                               const ActiveSet<2>&, const std::vector<Obstacle<2>>&,
-                                                              double, double, double, const std::vector<int>&);
+                                                              double, double, double, const std::vector<int>&,
+                                                              const std::vector<char>*, const std::vector<double>*);
 template std::vector<ContactPoint<3>> find_contact_candidates(const Grid<3>&, const Particles<3>&,
                                                               const std::vector<Stencil<3>>&, const GridFields<3>&,
                                                               const ActiveSet<3>&, const std::vector<Obstacle<3>>&,
-                                                              double, double, double, const std::vector<int>&);
+                                                              double, double, double, const std::vector<int>&,
+                                                              const std::vector<char>*, const std::vector<double>*);
 
 }  // namespace talus

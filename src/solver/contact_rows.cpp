@@ -46,6 +46,11 @@ void MomentumSystem<dim>::contact_rows(Vec v, Vec F) {
     for (int a = 0; a < dim; ++a)
       if (!cp.free[a]) r[a] = u[a] = 0.0;
     u -= cp.obstacle_velocity;
+    // A point whose material crossed the obstacle in an attempt of the step
+    // without it: the open gap closes within the step (u_N >= -g / h), as a
+    // rigid body's does above; held at u_N >= 0 it would leave the material
+    // hovering at the gap (docs/contact.md#which-grid-points-are-contact-points).
+    if (cp.closes_gap) u += (cp.gap / h_) * cp.normal;
     contact_impulse_[c] = r;
     contact_map_[c] = natural_map<dim>(r, u, cp.normal, cp.friction, cp.restitution, cp.start_normal_velocity, cp.rho);
     for (int a = 0; a < dim; ++a)

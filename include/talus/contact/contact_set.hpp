@@ -40,6 +40,11 @@ struct ContactPoint {
   // lowest point (along the normal) of the particle that sets the gap.
   int rigid = -1;
   Vector<dim> surface = Vector<dim>::Zero();
+  // A point added because its material crossed the obstacle in an attempt
+  // of the step without it (find_contact_candidates' `forced`): its open gap
+  // may close within the step, u_N >= -g / h, so the material reaches the
+  // obstacle instead of stopping where the step began.
+  bool closes_gap = false;
 };
 
 // A grid point where two velocity fields meet (docs/contact.md#bodies-in-contact):
@@ -60,13 +65,22 @@ struct BodyContactPoint {
   double rho = 0.0;               // natural-map parameter: the reduced mass m_a m_b / (m_a + m_b)
 };
 
+// Active points on or inside an obstacle whose material's gap is closed or
+// predicted to close within the step: g + gap_prediction h min(u_N, 0) <= 0
+// (docs/contact.md#which-grid-points-are-contact-points). `forced` (per
+// ghosted node of `fields`, optional): points that are candidates whatever
+// their predicted gap (the material crossed the obstacle in an attempt of
+// the step without them). `displacement` (optional, dim per particle): the
+// material's gaps are taken at x_p + displacement_p (the end of a step).
 template <int dim>
 std::vector<ContactPoint<dim>> find_contact_candidates(const Grid<dim>& grid, const Particles<dim>& particles,
                                                        const std::vector<Stencil<dim>>& stencils,
                                                        const GridFields<dim>& fields, const ActiveSet<dim>& active,
                                                        const std::vector<Obstacle<dim>>& obstacles, double time,
                                                        double h, double gap_prediction,
-                                                       const std::vector<int>& rigid_of_field = {});
+                                                       const std::vector<int>& rigid_of_field = {},
+                                                       const std::vector<char>* forced = nullptr,
+                                                       const std::vector<double>* displacement = nullptr);
 
 // Points where two fields are predicted to touch within the step:
 // g + gap_prediction h min(u_N^n, 0) <= 0, with g the gap between the two
