@@ -23,7 +23,10 @@ With talus's default options and with `-talus_balance_time_fraction 0`
 bound: docs/solver.md#the-tolerance-follows-the-time-error).
 
 usage: study_contact_wall.py [--talus build/talus] [--work DIR] [--steps 0.001,0.01,0.1,1]
-                             [--cells 0.05,0.025,0.0125] [--balance default,exact]
+                             [--cells 0.05,0.025,0.0125] [--balance default,exact] [--plot PNG]
+
+--plot: the wall force against the step size, per grid (the last step, and
+the range of every step after the first), with the closed form.
 """
 import argparse
 import csv
@@ -86,6 +89,7 @@ def run(talus, work, step, exact_balance, cell):
             "steps": summary["steps"], "newton": summary["newton_iterations"], "cpu": cpu,
             "first": force[0], "final": force[-1], "worst": 100 * np.abs(deviation[1:]).max(),
             "spread": 100 * (force.max() - force.min()) / EXPECTED, "final_error": 100 * deviation[-1],
+            "up": force[1:].max() - force[-1], "down": force[-1] - force[1:].min(),
             "loaded": f"{min(loaded)}-{max(loaded)}" if loaded else "-"}
 
 
@@ -113,6 +117,7 @@ def main():
     ap.add_argument("--steps", default="0.001,0.01,0.1,1")
     ap.add_argument("--cells", default="0.05,0.025,0.0125",
                     help="cell sizes (the wall stands half a cell beyond a grid line on each)")
+    ap.add_argument("--plot", default=None, help="write this PNG")
     ap.add_argument("--balance", default="default,exact",
                     help="default: talus's Newton tolerance; exact: -talus_balance_time_fraction 0")
     args = ap.parse_args()
@@ -128,6 +133,32 @@ def main():
     print("\n".join(table_lines(rows, COLUMNS)))
     print()
     print("\n".join(markdown_lines(rows, COLUMNS, text_columns=3)))
+    if args.plot:
+        plot(rows, args.plot)
+
+
+def plot(rows, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    ax.axhline(EXPECTED, color="0.5", lw=2, label="K0 rho g H^2 / 2")
+    for k, cell in enumerate(sorted({r["cell"] for r in rows}, reverse=True)):
+        mine = sorted((r for r in rows if r["cell"] == cell and r["balance"] == "default"), key=lambda r: r["step"])
+        h = [r["step"] for r in mine]
+        color = f"C{k}"
+        ax.plot(h, [r["final"] for r in mine], "o-", color=color, label=f"cell {cell:g} m: last step")
+        low = [r["final"] - r["down"] for r in mine]
+        high = [r["final"] + r["up"] for r in mine]
+        ax.fill_between(h, low, high, color=color, alpha=0.2, lw=0)
+    ax.set_xscale("log")
+    ax.set_xlabel("step h (s)")
+    ax.set_ylabel("wall force (N/m)")
+    ax.set_title("A wall holding a layer at rest (band: every step after the first)", fontsize=9)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    print(f"wrote {path}")
 
 
 if __name__ == "__main__":

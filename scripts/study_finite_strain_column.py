@@ -27,8 +27,13 @@ knot on every grid, so that no grid function is entered by a sliver only.
 from 0.05 down to 0.00078125 m at 3.3 % strain (E = 294,300 Pa), with the
 position of the settled top within its cell.
 
-usage: study_finite_strain_column.py [--talus build/talus] [--work DIR] [--quadrature point|domain]
+--quadrature both runs every configuration with each quadrature; --plot PNG
+draws the errors against the cell size (docs/images/finite_strain_column.png
+is --quadrature both --configurations fine --plot).
+
+usage: study_finite_strain_column.py [--talus build/talus] [--work DIR] [--quadrature point|domain|both]
                                      [--configurations original|quasi-static|fine] [--ghost-penalty G]
+                                     [--plot PNG]
 """
 import argparse
 import glob
@@ -158,7 +163,10 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--talus", default=os.path.join(os.path.dirname(__file__), "..", "build", "talus"))
     parser.add_argument("--work", default=None)
-    parser.add_argument("--quadrature", choices=["point", "domain"], default="point")
+    parser.add_argument("--quadrature", choices=["point", "domain", "both"], default="point",
+                        help="both: every configuration with each (for --plot)")
+    parser.add_argument("--plot", default=None,
+                        help="write a PNG: the errors against the cell size, per E, ppc and step")
     parser.add_argument("--strain-increment", choices=["linear", "logarithmic"], default="linear",
                         help="time.strain_increment of the runs (docs/formulation.md#the-strain-increment)")
     parser.add_argument("--ghost-penalty", type=float, default=None,
@@ -167,17 +175,19 @@ def main():
     parser.add_argument("--configurations", choices=["original", "quasi-static", "fine", "increment"], default=None,
                         help="default: original with point quadrature, quasi-static with domain")
     args = parser.parse_args()
-    chosen = args.configurations or ("quasi-static" if args.quadrature == "domain" else "original")
+    chosen = args.configurations or ("original" if args.quadrature == "point" else "quasi-static")
     configurations = {"original": CONFIGURATIONS, "quasi-static": DOMAIN_CONFIGURATIONS,
                       "fine": FINE_CONFIGURATIONS, "increment": INCREMENT_CONFIGURATIONS}[chosen]
     work = args.work or tempfile.mkdtemp(prefix="finite_strain_")
     os.makedirs(work, exist_ok=True)
     rows = []
-    for n, (cell, ppc, step, end, E) in enumerate(configurations):
+    quadratures = ["point", "domain"] if args.quadrature == "both" else [args.quadrature]
+    runs = [(q,) + c for q in quadratures for c in configurations]
+    for n, (quadrature, cell, ppc, step, end, E) in enumerate(runs):
         directory = os.path.join(work, f"run_{n}")
         case = os.path.join(work, f"case_{n}.yaml")
         with open(case, "w") as f:
-            f.write(case_text(cell, ppc, step, end, E, directory, args.quadrature, args.strain_increment))
+            f.write(case_text(cell, ppc, step, end, E, directory, quadrature, args.strain_increment))
             if args.ghost_penalty is not None:
                 f.write(f"solver:\n  ghost_penalty: {args.ghost_penalty}\n")
         subprocess.run([os.path.abspath(args.talus), "run", case, "--quiet", "--overwrite"], check=True,
@@ -189,7 +199,7 @@ def main():
         # Without the two rows of particles at the floor and the two at the top.
         spacing = cell / ppc
         inner = (Y > 2 * spacing) & (Y < L0 - 2 * spacing)
-        rows.append({"inner L2": float(np.sqrt(np.mean(error[inner] ** 2))),"cell": cell, "ppc": ppc, "h": step, "steps": int(round(end / step)), "E": E,
+        rows.append({"quadrature": quadrature, "inner L2": float(np.sqrt(np.mean(error[inner] ** 2))), "cell": cell, "ppc": ppc, "h": step, "steps": int(round(end / step)), "E": E,
                      "L2": float(np.sqrt(np.mean(error ** 2))), "bias": float(np.mean(error)),
                      "worst": float(np.abs(error).max()), "interior": float(np.abs(error[interior]).max()),
                      "moved": float(np.abs(u[:, 1]).max() / cell),
@@ -197,12 +207,43 @@ def main():
                      # particle; the top is stress free, stretch 1) past the
                      # last grid line below it, in cells: near 0 is a sliver.
                      "top": float(((x[:, 1].max() + 0.5 * spacing) / cell) % 1.0), "vmax": float(np.abs(velocity).max())})
-        print(f"run {n + 1}/{len(configurations)} done", file=sys.stderr)
-    columns = [("cell", "cell m", "{:g}"), ("ppc", "ppc", "{}"), ("h", "h s", "{:g}"), ("steps", "steps", "{}"),
+        print(f"run {n + 1}/{len(runs)} done", file=sys.stderr)
+    columns = [("quadrature", "quadrature", "{}"), ("cell", "cell m", "{:g}"), ("ppc", "ppc", "{}"), ("h", "h s", "{:g}"), ("steps", "steps", "{}"),
                ("E", "E Pa", "{:.4g}"), ("L2", "L2", "{:.2e}"), ("bias", "bias", "{:+.1e}"),
                ("worst", "worst", "{:.2e}"), ("interior", "interior", "{:.2e}"), ("inner L2", "L2 w/o 2 rows each end", "{:.2e}"),
                ("moved", "moved cells", "{:.2f}"), ("top", "top past a grid line, cells", "{:.2f}"), ("vmax", "v_max m/s", "{:.0e}")]
     print("\n".join(table_lines(rows, columns)))
+    if args.plot:
+        plot(rows, args.plot)
+
+
+def plot(rows, path):
+    """L2 over all particles (solid) and the interior's largest error
+    (dashed) against the cell, one colour per quadrature, E, ppc and step;
+    a slope of 1.5 for reference."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(6.4, 4.6))
+    groups = sorted({(r["quadrature"], r["E"], r["ppc"], r["h"]) for r in rows})
+    for k, (q, E, ppc, h) in enumerate(groups):
+        mine = sorted((r for r in rows if (r["quadrature"], r["E"], r["ppc"], r["h"]) == (q, E, ppc, h)),
+                      key=lambda r: r["cell"])
+        cells = [r["cell"] for r in mine]
+        strain = RHO * G * L0 / E
+        label = f"{q}, base strain {100 * strain:.1f} %" + (f", {ppc}x{ppc}" if ppc != 2 else "") + f", h {h:g} s"
+        ax.loglog(cells, [r["L2"] for r in mine], "o-", color=f"C{k}", label=label + ": L2")
+        ax.loglog(cells, [r["interior"] for r in mine], "s--", color=f"C{k}", ms=4, label=label + ": interior")
+    c = np.array([min(r["cell"] for r in rows), max(r["cell"] for r in rows)])
+    ax.loglog(c, 1e-5 * (c / c[0]) ** 1.5, "k:", label="slope 1.5")
+    ax.axhline(1e-5, color="0.6", lw=1)
+    ax.set_xlabel("cell (m)")
+    ax.set_ylabel("stress error / (rho0 g l0)")
+    ax.set_title("Settling elastic column at finite strain", fontsize=9)
+    ax.legend(fontsize=6)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    print(f"wrote {path}")
 
 
 if __name__ == "__main__":
