@@ -370,6 +370,21 @@ TEST_CASE("A layer at rest on a frictional floor carries its weight down to the 
   CHECK(bottom_error <= 0.02 * scale);
 }
 
+namespace {
+
+// A rigid frictionless wall at x = x_wall holding material on its left.
+ObstacleConfig frictionless_wall(double x_wall) {
+  ObstacleConfig wall;
+  wall.name = "wall";
+  wall.point = {x_wall, 0.0};
+  wall.normal = {-1.0, 0.0};
+  wall.velocity = {0.0, 0.0};
+  wall.friction = 0.0;
+  return wall;
+}
+
+}  // namespace
+
 TEST_CASE("Earth pressure on a frictionless wall: K0 rho g H^2 / 2, first order in the cell", "[contact][mpi]") {
   // An elastic soil layer in uniaxial strain between a slip face (x = 0), a
   // slip floor and a frictionless wall half a cell beyond a grid line (x =
@@ -392,13 +407,7 @@ TEST_CASE("Earth pressure on a frictionless wall: K0 rho g H^2 / 2, first order 
         "bodies: [{name: layer, material: soil, box: {lower: [0, 0], upper: [" + std::to_string(x_wall) +
         ", 1.0]}, initial_stress: geostatic}]\n"
         "boundaries: {x_min: slip, x_max: free, y_min: slip, y_max: free}\n");
-    ObstacleConfig wall;
-    wall.name = "wall";
-    wall.point = {x_wall, 0.0};
-    wall.normal = {-1.0, 0.0};
-    wall.velocity = {0.0, 0.0};
-    wall.friction = 0.0;
-    c.obstacles.push_back(wall);
+    c.obstacles.push_back(frictionless_wall(x_wall));
     Simulation<2> sim(c, PETSC_COMM_WORLD);
     for (int k = 0; k < 20; ++k) REQUIRE(sim.advance(0.01).converged);
     const Vector<2> f = sim.obstacle_forces()[0];
@@ -470,13 +479,7 @@ TEST_CASE("a wall holding a layer at rest with steps of 1 s: the same contact po
         "materials: [{name: soil, model: linear_elastic, density: 2000, youngs_modulus: 1.0e7, poisson_ratio: 0.3}]\n"
         "bodies: [{name: layer, material: soil, box: {lower: [0, 0], upper: [0.8375, 1.0]}, initial_stress: geostatic}]\n"
         "boundaries: {x_min: slip, x_max: free, y_min: slip, y_max: free}\n");
-    ObstacleConfig wall;
-    wall.name = "wall";
-    wall.point = {0.8375, 0.0};
-    wall.normal = {-1.0, 0.0};
-    wall.velocity = {0.0, 0.0};
-    wall.friction = 0.0;
-    c.obstacles.push_back(wall);
+    c.obstacles.push_back(frictionless_wall(0.8375));
     Simulation<2> sim(c, PETSC_COMM_SELF);
     std::vector<Step> steps;
     for (int k = 0; k < 20; ++k) {
@@ -532,13 +535,7 @@ TEST_CASE("a wall a round-off away from a layer at rest with steps of 1 s carrie
           "bodies: [{name: layer, material: soil, box: {lower: [0, 0], upper: [0.825, 1.0]}, initial_stress: geostatic}]\n"
           "boundaries: {x_min: slip, x_max: free, y_min: slip, y_max: free}\n";
   CaseConfig c = testing::case_from_yaml(yaml.str());
-  ObstacleConfig wall;
-  wall.name = "wall";
-  wall.point = {x_wall, 0.0};
-  wall.normal = {-1.0, 0.0};
-  wall.velocity = {0.0, 0.0};
-  wall.friction = 0.0;
-  c.obstacles.push_back(wall);
+  c.obstacles.push_back(frictionless_wall(x_wall));
   Simulation<2> sim(c, PETSC_COMM_SELF);
   for (int k = 0; k < 20; ++k) {
     const StepReport r = sim.advance(1.0);
