@@ -306,6 +306,7 @@ StepReport Simulation<dim>::advance(double h) {
     // relieved. Such points become contact points and the step is solved
     // again (at most twice), as an active-set iteration
     // (docs/contact.md#which-grid-points-are-contact-points).
+    const auto tm = std::chrono::steady_clock::now();
     // Where the material would be at the end of the step: x_p + h v_theta,
     // as G2P moves it.
     std::vector<double> displacement(static_cast<std::size_t>(dim) * stencils.size(), 0.0);
@@ -339,6 +340,9 @@ StepReport Simulation<dim>::advance(double h) {
       }
     long missed = 0;
     MPI_Allreduce(&local, &missed, 1, MPI_LONG, MPI_SUM, comm_);
+    const double check_seconds = seconds_since(tm);
+    report.contact_seconds += check_seconds;
+    report.solve_seconds += check_seconds;
     if (missed > 0 && contact_resolve_depth_ < 2) {
       ++contact_resolve_depth_;
       StepReport again = advance(h);
