@@ -25,14 +25,16 @@ three strains, quasi-static steps of 0.5 s, and at 3.1 % strain
 knot on every grid, so that no grid function is entered by a sliver only.
 --quadrature domain --configurations fine: the whole column's L2 on grids
 from 0.05 down to 0.00078125 m at 3.3 % strain (E = 294,300 Pa), with the
-position of the settled top within its cell.
+position of the settled top within its cell. --configurations steps: the
+same column on cells of 0.0125 and 0.003125 m at steps from 1 s down to
+0.05 s, to the same 5 s.
 
 --quadrature both runs every configuration with each quadrature; --plot PNG
 draws the errors against the cell size (docs/images/finite_strain_column.png
 is --quadrature both --configurations fine --plot).
 
 usage: study_finite_strain_column.py [--talus build/talus] [--work DIR] [--quadrature point|domain|both]
-                                     [--configurations original|quasi-static|fine] [--ghost-penalty G]
+                                     [--configurations original|quasi-static|fine|steps] [--ghost-penalty G]
                                      [--plot PNG]
 """
 import argparse
@@ -103,6 +105,10 @@ DOMAIN_CONFIGURATIONS = [
 FINE_CONFIGURATIONS = [(cell, 2, 0.5, 5.0, 294300.0)
                        for cell in (0.05, 0.025, 0.0125, 0.00625, 0.003125, 0.0015625, 0.00078125)]
 
+# The step: the settled column of FINE_CONFIGURATIONS on two grids at
+# backward-Euler steps from 1 s down to 0.05 s (5 s: 5 to 100 steps).
+STEP_CONFIGURATIONS = [(cell, 2, step, 5.0, 294300.0)
+                       for cell in (0.0125, 0.003125) for step in (1.0, 0.5, 0.25, 0.1, 0.05)]
 
 # Dynamic settling (steps of 0.01 and 0.005 s, the column still rings a
 # little at the end) and one quasi-static run, to compare the two strain
@@ -172,12 +178,13 @@ def main():
     parser.add_argument("--ghost-penalty", type=float, default=None,
                         help="solver.ghost_penalty of the runs (default: the case file's default, 0.03); "
                              "docs/formulation.md: the sliver and the setting that controls it")
-    parser.add_argument("--configurations", choices=["original", "quasi-static", "fine", "increment"], default=None,
+    parser.add_argument("--configurations", choices=["original", "quasi-static", "fine", "steps", "increment"], default=None,
                         help="default: original with point quadrature, quasi-static with domain")
     args = parser.parse_args()
     chosen = args.configurations or ("original" if args.quadrature == "point" else "quasi-static")
     configurations = {"original": CONFIGURATIONS, "quasi-static": DOMAIN_CONFIGURATIONS,
-                      "fine": FINE_CONFIGURATIONS, "increment": INCREMENT_CONFIGURATIONS}[chosen]
+                      "fine": FINE_CONFIGURATIONS, "steps": STEP_CONFIGURATIONS,
+                      "increment": INCREMENT_CONFIGURATIONS}[chosen]
     work = args.work or tempfile.mkdtemp(prefix="finite_strain_")
     os.makedirs(work, exist_ok=True)
     rows = []
