@@ -321,8 +321,9 @@ StepReport Simulation<dim>::advance(double h) {
                 h * stencils[p].weight[k] * (theta * v_end[o] + (1.0 - theta) * v_start[o]);
           }
     }
+    // The gaps at the end of the step, to the obstacles where they are then.
     const std::vector<ContactPoint<dim>> closing =
-        find_contact_candidates(*grid_, *particles_, stencils, fields, active, obstacles_, time_, h, 0.0,
+        find_contact_candidates(*grid_, *particles_, stencils, fields, active, obstacles_, time_ + h, h, 0.0,
                                 rigid_of_field, nullptr, &displacement);
     std::vector<char> held(fields.mass.size(), 0);
     for (const ContactPoint<dim>& cp : system.contacts()) held[cp.point] = 1;
@@ -334,7 +335,12 @@ StepReport Simulation<dim>::advance(double h) {
     long local = 0;
     if (forced_contacts_.empty()) forced_contacts_.assign(fields.mass.size(), 0);
     for (const ContactPoint<dim>& cp : closing)
-      if (cp.rigid < 0 && !held[cp.point] && cp.gap < -tolerance) {
+      if (cp.rigid < 0 && !held[cp.point] && cp.gap < -tolerance &&
+          // A candidate of the next attempt must lie on or inside its
+          // obstacle at the step's start (a moving one's points that enter
+          // it within the step are not).
+          obstacles_[cp.obstacle].gap(grid_->point_position(grid_->global_index(fields.point_of(cp.point))), time_).gap <=
+              1e-9 * grid_->cell_size()) {
         forced_contacts_[cp.point] = 1;
         ++local;
       }
