@@ -307,43 +307,11 @@ StepReport Simulation<dim>::advance(double h) {
     // again (at most twice), as an active-set iteration
     // (docs/contact.md#which-grid-points-are-contact-points).
     const auto tm = std::chrono::steady_clock::now();
-    // Where the material would be at the end of the step: x_p + h v_theta,
-    // as G2P moves it.
-    std::vector<double> displacement(static_cast<std::size_t>(dim) * stencils.size(), 0.0);
-    {
-      const auto& v_end = system.end_velocity();
-      const auto& v_start = system.start_velocity();
-      for (std::size_t p = 0; p < stencils.size(); ++p)
-        for (int k = 0; k < stencils[p].count; ++k)
-          for (int a = 0; a < dim; ++a) {
-            const std::size_t o = static_cast<std::size_t>(dim) * stencils[p].local[k] + a;
-            displacement[dim * p + a] +=
-                h * stencils[p].weight[k] * (theta * v_end[o] + (1.0 - theta) * v_start[o]);
-          }
-    }
-    // The gaps at the end of the step, to the obstacles where they are then.
-    const std::vector<ContactPoint<dim>> closing =
-        find_contact_candidates(*grid_, *particles_, stencils, fields, active, obstacles_, time_ + h, h, 0.0,
-                                rigid_of_field, nullptr, &displacement);
-    std::vector<char> held(fields.mass.size(), 0);
-    for (const ContactPoint<dim>& cp : system.contacts()) held[cp.point] = 1;
-    // Crossings below 1e-4 of a cell are not a missed contact: the particles
-    // move with the velocity interpolated from all their grid points, a
-    // contact point holds only its own, and at rest against a wall that
-    // leaves crossings of about 2e-5 cell at every step.
-    const double tolerance = 1e-4 * grid_->cell_size();
-    long local = 0;
     if (forced_contacts_.empty()) forced_contacts_.assign(fields.mass.size(), 0);
-    for (const ContactPoint<dim>& cp : closing)
-      if (cp.rigid < 0 && !held[cp.point] && cp.gap < -tolerance &&
-          // A candidate of the next attempt must lie on or inside its
-          // obstacle at the step's start (a moving one's points that enter
-          // it within the step are not).
-          obstacles_[cp.obstacle].gap(grid_->point_position(grid_->global_index(fields.point_of(cp.point))), time_).gap <=
-              1e-9 * grid_->cell_size()) {
-        forced_contacts_[cp.point] = 1;
-        ++local;
-      }
+    const long local =
+        flag_missed_contacts(*grid_, *particles_, stencils, fields, active, obstacles_, time_, h, theta,
+                             system.end_velocity(), system.start_velocity(), system.contacts(), forced_contacts_,
+                             rigid_of_field);
     long missed = 0;
     MPI_Allreduce(&local, &missed, 1, MPI_LONG, MPI_SUM, comm_);
     const double check_seconds = seconds_since(tm);

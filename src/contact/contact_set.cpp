@@ -393,6 +393,46 @@ template std::vector<BodyContactPoint<3>> find_body_contacts(const Grid<3>&, con
                                                              const std::vector<ContactPoint<3>>&, double,
                                                              const std::vector<int>&);
 
+template <int dim>
+long flag_missed_contacts(const Grid<dim>& grid, const Particles<dim>& particles,
+                          const std::vector<Stencil<dim>>& stencils, const GridFields<dim>& fields,
+                          const ActiveSet<dim>& active, const std::vector<Obstacle<dim>>& obstacles, double time,
+                          double h, double theta, const std::vector<double>& v_end, const std::vector<double>& v_start,
+                          const std::vector<ContactPoint<dim>>& contacts, std::vector<char>& forced,
+                          const std::vector<int>& rigid_of_field) {
+  // Where the material would be at the end of the step: x_p + h v_theta,
+  // as G2P moves it.
+  std::vector<double> displacement(static_cast<std::size_t>(dim) * stencils.size(), 0.0);
+  for (std::size_t p = 0; p < stencils.size(); ++p)
+    for (int k = 0; k < stencils[p].count; ++k)
+      for (int a = 0; a < dim; ++a) {
+        const std::size_t o = static_cast<std::size_t>(dim) * stencils[p].local[k] + a;
+        displacement[dim * p + a] += h * stencils[p].weight[k] * (theta * v_end[o] + (1.0 - theta) * v_start[o]);
+      }
+  // The material's gaps at the end of the step, to the obstacles where they are then.
+  const std::vector<ContactPoint<dim>> closing = find_contact_candidates(
+      grid, particles, stencils, fields, active, obstacles, time + h, h, 0.0, rigid_of_field, nullptr, &displacement);
+  std::vector<char> held(fields.mass.size(), 0);
+  for (const ContactPoint<dim>& cp : contacts) held[cp.point] = 1;
+  // Crossings below 1e-4 of a cell are not a missed contact: the particles
+  // move with the velocity interpolated from all their grid points, a
+  // contact point holds only its own, and at rest against a wall that leaves
+  // crossings of about 2e-5 cell at every step.
+  const double tolerance = 1e-4 * grid.cell_size();
+  long missed = 0;
+  for (const ContactPoint<dim>& cp : closing) {
+    if (cp.rigid >= 0 || held[cp.point] || cp.gap >= -tolerance) continue;
+    // A candidate of the next attempt must lie on or inside its obstacle at
+    // the step's start (a moving one's points that enter it within the step
+    // are not).
+    const Vector<dim> x = grid.point_position(grid.global_index(fields.point_of(cp.point)));
+    if (obstacles[cp.obstacle].gap(x, time).gap > 1e-9 * grid.cell_size()) continue;
+    forced[cp.point] = 1;
+    ++missed;
+  }
+  return missed;
+}
+
 template std::vector<ContactPoint<2>> find_contact_candidates(const Grid<2>&, const Particles<2>&,
                                                               const std::vector<Stencil<2>>&, const GridFields<2>&,
                                                               const ActiveSet<2>&, const std::vector<Obstacle<2>>&,
@@ -403,5 +443,14 @@ template std::vector<ContactPoint<3>> find_contact_candidates(const Grid<3>&, co
                                                               const ActiveSet<3>&, const std::vector<Obstacle<3>>&,
                                                               double, double, double, const std::vector<int>&,
                                                               const std::vector<char>*, const std::vector<double>*);
+
+template long flag_missed_contacts<2>(const Grid<2>&, const Particles<2>&, const std::vector<Stencil<2>>&,
+                                      const GridFields<2>&, const ActiveSet<2>&, const std::vector<Obstacle<2>>&,
+                                      double, double, double, const std::vector<double>&, const std::vector<double>&,
+                                      const std::vector<ContactPoint<2>>&, std::vector<char>&, const std::vector<int>&);
+template long flag_missed_contacts<3>(const Grid<3>&, const Particles<3>&, const std::vector<Stencil<3>>&,
+                                      const GridFields<3>&, const ActiveSet<3>&, const std::vector<Obstacle<3>>&,
+                                      double, double, double, const std::vector<double>&, const std::vector<double>&,
+                                      const std::vector<ContactPoint<3>>&, std::vector<char>&, const std::vector<int>&);
 
 }  // namespace talus

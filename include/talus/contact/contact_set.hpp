@@ -82,6 +82,20 @@ std::vector<ContactPoint<dim>> find_contact_candidates(const Grid<dim>& grid, co
                                                        const std::vector<char>* forced = nullptr,
                                                        const std::vector<double>* displacement = nullptr);
 
+// The step's missed contact points (docs/contact.md#which-grid-points-are-contact-points):
+// points on or inside an obstacle at t^n, not among `contacts`, whose
+// material would end the step (particles moved by h v_theta, v_theta from
+// the grid velocities v_end and v_start) more than 1e-4 cell inside the
+// obstacle where it is at t^n + h. Sets `forced` (per ghosted node of
+// `fields`) at them and returns how many this rank has; collective.
+template <int dim>
+long flag_missed_contacts(const Grid<dim>& grid, const Particles<dim>& particles,
+                          const std::vector<Stencil<dim>>& stencils, const GridFields<dim>& fields,
+                          const ActiveSet<dim>& active, const std::vector<Obstacle<dim>>& obstacles, double time,
+                          double h, double theta, const std::vector<double>& v_end, const std::vector<double>& v_start,
+                          const std::vector<ContactPoint<dim>>& contacts, std::vector<char>& forced,
+                          const std::vector<int>& rigid_of_field = {});
+
 // Points where two fields are predicted to touch within the step:
 // g + gap_prediction h min(u_N^n, 0) <= 0, with g the gap between the two
 // bodies' particles along the normal. The normal comes from the fields'
