@@ -194,6 +194,8 @@ class Simulation {
   void check_finite() const;
   std::vector<char> rigid_particles(const MomentumSystem<dim>& system) const;
   std::vector<double> contact_normals(const MomentumSystem<dim>& system, int field_count) const;
+  void leave_out_sticking_contacts(const MomentumSystem<dim>& system, int field_count,
+                                   std::vector<double>& packing) const;
   void repartition(const Ownership<dim>& ownership);
   // last_acceleration_ to and from a checkpoint's rows (RunState).
   void store_last_acceleration(RunState& state) const;
