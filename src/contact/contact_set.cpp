@@ -400,6 +400,38 @@ long flag_missed_contacts(const Grid<dim>& grid, const Particles<dim>& particles
                           double h, double theta, const std::vector<double>& v_end, const std::vector<double>& v_start,
                           const std::vector<ContactPoint<dim>>& contacts, std::vector<char>& forced,
                           const std::vector<int>& rigid_of_field) {
+  // Crossings below 1e-4 of a cell are not a missed contact: the particles
+  // move with the velocity interpolated from all their grid points, a
+  // contact point holds only its own, and at rest against a wall that leaves
+  // crossings of about 2e-5 cell at every step.
+  const double tolerance = 1e-4 * grid.cell_size();
+  std::vector<char> held(fields.mass.size(), 0);
+  for (const ContactPoint<dim>& cp : contacts) held[cp.point] = 1;
+  // A point can be flagged only if its material is at rest against an
+  // obstacle it lies on or in at t^n, and it is not a contact point. Most
+  // steps have none (a flowing body moves; a body at rest on an obstacle
+  // holds its points there), and then the gaps at the end of the step,
+  // one evaluation per particle and obstacle, are not needed. Decided on
+  // all ranks together: find_contact_candidates is collective with rigid
+  // bodies.
+  const auto could_be_missed = [&](int node, const Obstacle<dim>& obstacle) {
+    if (held[node] || fields.mass[node] <= 0.0) return false;
+    const Vector<dim> v = Eigen::Map<const Vector<dim>>(fields.velocity.data() + static_cast<std::size_t>(dim) * node);
+    if ((v - obstacle.velocity()).norm() * h > tolerance) return false;
+    const Vector<dim> x = grid.point_position(grid.global_index(fields.point_of(node)));
+    return obstacle.gap(x, time).gap <= 1e-9 * grid.cell_size();
+  };
+  int mine = 0, any = 0;
+  for (std::size_t node = 0; node < fields.mass.size() && !mine; ++node) {
+    if (active.compact_index(static_cast<int>(node)) < 0) continue;
+    for (const Obstacle<dim>& obstacle : obstacles)
+      if (could_be_missed(static_cast<int>(node), obstacle)) {
+        mine = 1;
+        break;
+      }
+  }
+  MPI_Allreduce(&mine, &any, 1, MPI_INT, MPI_MAX, grid.comm());
+  if (!any) return 0;
   // Where the material would be at the end of the step: x_p + h v_theta,
   // as G2P moves it.
   std::vector<double> displacement(static_cast<std::size_t>(dim) * stencils.size(), 0.0);
@@ -412,13 +444,6 @@ long flag_missed_contacts(const Grid<dim>& grid, const Particles<dim>& particles
   // The material's gaps at the end of the step, to the obstacles where they are then.
   const std::vector<ContactPoint<dim>> closing = find_contact_candidates(
       grid, particles, stencils, fields, active, obstacles, time + h, h, 0.0, rigid_of_field, nullptr, &displacement);
-  std::vector<char> held(fields.mass.size(), 0);
-  for (const ContactPoint<dim>& cp : contacts) held[cp.point] = 1;
-  // Crossings below 1e-4 of a cell are not a missed contact: the particles
-  // move with the velocity interpolated from all their grid points, a
-  // contact point holds only its own, and at rest against a wall that leaves
-  // crossings of about 2e-5 cell at every step.
-  const double tolerance = 1e-4 * grid.cell_size();
   long missed = 0;
   for (const ContactPoint<dim>& cp : closing) {
     if (cp.rigid >= 0 || held[cp.point] || cp.gap >= -tolerance) continue;
@@ -428,13 +453,10 @@ long flag_missed_contacts(const Grid<dim>& grid, const Particles<dim>& particles
     // curved terrain again moved the boulder cases' peak forces by 5-27 %,
     // cost up to 15 % more Newton iterations and left their energy balances
     // 7-100 times less closed (docs/contact.md).
-    const Vector<dim> v = Eigen::Map<const Vector<dim>>(fields.velocity.data() + static_cast<std::size_t>(dim) * cp.point);
-    if ((v - obstacles[cp.obstacle].velocity()).norm() * h > tolerance) continue;
     // A candidate of the next attempt must lie on or inside its obstacle at
     // the step's start (a moving one's points that enter it within the step
     // are not).
-    const Vector<dim> x = grid.point_position(grid.global_index(fields.point_of(cp.point)));
-    if (obstacles[cp.obstacle].gap(x, time).gap > 1e-9 * grid.cell_size()) continue;
+    if (!could_be_missed(cp.point, obstacles[cp.obstacle])) continue;
     forced[cp.point] = 1;
     ++missed;
   }
