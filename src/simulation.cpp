@@ -307,7 +307,6 @@ StepReport Simulation<dim>::advance(double h) {
     // again (at most twice), as an active-set iteration
     // (docs/contact.md#which-grid-points-are-contact-points).
     const auto tm = std::chrono::steady_clock::now();
-    if (forced_contacts_.empty()) forced_contacts_.assign(fields.mass.size(), 0);
     const long local =
         flag_missed_contacts(*grid_, *particles_, stencils, fields, active, obstacles_, time_, h, theta,
                              system.end_velocity(), system.start_velocity(), system.contacts(), forced_contacts_,

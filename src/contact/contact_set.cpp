@@ -446,7 +446,7 @@ long flag_missed_contacts(const Grid<dim>& grid, const Particles<dim>& particles
       grid, particles, stencils, fields, active, obstacles, time + h, h, 0.0, rigid_of_field, nullptr, &displacement);
   long missed = 0;
   for (const ContactPoint<dim>& cp : closing) {
-    if (cp.rigid >= 0 || held[cp.point] || cp.gap >= -tolerance) continue;
+    if (cp.rigid >= 0 || cp.gap >= -tolerance) continue;
     // Only material at rest at t^n (moving less than the tolerance in a
     // step), which the prediction cannot see. Moving material is the
     // prediction's (gap_prediction): solving impacts and slides along
@@ -457,6 +457,7 @@ long flag_missed_contacts(const Grid<dim>& grid, const Particles<dim>& particles
     // the step's start (a moving one's points that enter it within the step
     // are not).
     if (!could_be_missed(cp.point, obstacles[cp.obstacle])) continue;
+    if (forced.empty()) forced.assign(fields.mass.size(), 0);
     forced[cp.point] = 1;
     ++missed;
   }

@@ -87,7 +87,8 @@ std::vector<ContactPoint<dim>> find_contact_candidates(const Grid<dim>& grid, co
 // material would end the step (particles moved by h v_theta, v_theta from
 // the grid velocities v_end and v_start) more than 1e-4 cell inside the
 // obstacle where it is at t^n + h. Sets `forced` (per ghosted node of
-// `fields`) at them and returns how many this rank has; collective.
+// `fields`, sized here if empty) at them and returns how many this rank
+// has; collective.
 template <int dim>
 long flag_missed_contacts(const Grid<dim>& grid, const Particles<dim>& particles,
                           const std::vector<Stencil<dim>>& stencils, const GridFields<dim>& fields,
