@@ -404,6 +404,29 @@ TEST_CASE("Factors are refreshed when they no longer precondition well", "[solve
   }
 }
 
+TEST_CASE("The LU fallback keeps its factors across the step's Newton iterations", "[solver][reuse][convergence]") {
+  // Unpreconditioned GMRES limited to 2 iterations fails the first solve of
+  // every step, so every step of the collapsing column is solved again by
+  // the LU fallback: Newton with GMRES on LU factors kept while a solve on
+  // them needs at most 30 Krylov iterations (docs/solver.md#failed-linear-solves),
+  // every solve to 1e-8. Against Newton with a fresh LU at every iterate:
+  // the same answer to the solver tolerance times the stiffness ratio, as
+  // for the default's kept factors above, with far fewer factorizations.
+  const testing::ScopedOption exact_balance("-talus_balance_time_fraction", "0");
+  const std::string yaml = collapsing_column(2e-3);
+  const ColumnRun fallback = run_column(
+      yaml, 2e-3, 16, {{"-talus_ksp_type", "gmres"}, {"-talus_pc_type", "none"}, {"-talus_ksp_max_it", "2"}},
+      PETSC_COMM_SELF);
+  const ColumnRun fresh = run_column(yaml, 2e-3, 16, fresh_lu, PETSC_COMM_SELF);
+  std::printf("collapsing column, 16 steps by the LU fallback: %ld Newton iterations (with the failed starts), "
+              "%ld factorizations; fresh LU: %ld Newton iterations\n",
+              fallback.newton, fallback.factorizations, fresh.newton);
+  CHECK(fallback.fallbacks == 16);
+  CHECK(fallback.factorizations >= 16);  // at least one per step: each fallback builds its own structure
+  CHECK(2 * fallback.factorizations <= fresh.newton);
+  CHECK(max_relative_difference(fallback.stress, fresh.stress) < 1e-6);
+}
+
 TEST_CASE("The Jacobian as an operator: the matrix's steps, assembled only for its factors", "[solver][reuse]") {
   // -talus_jacobian operator: GMRES multiplies by the particle tangents
   // (MomentumSystem::apply_jacobian) and the matrix is assembled only when

@@ -416,12 +416,21 @@ void NewtonSolver<dim>::build(MomentumSystem<dim>& system, PetscInt unknowns, Fa
     configure_multigrid_fallback(system);
   } else if (fallback == Fallback::direct) {
     // The fallback after a failed linear solve: Newton with the default
-    // line search and an LU solve, whatever the options say.
+    // line search and LU factors, whatever the options say. The factors are
+    // kept across the step's Newton iterations under GMRES, like the
+    // default's incomplete ones, and computed again only when a solve on
+    // them needs more than -talus_refactor_iterations Krylov iterations: a
+    // fresh LU at every iterate cost the 12,800-particle column a fifth of
+    // its CPU time. Every solve to 1e-8, as the fresh LU's were (not inexact
+    // Newton: on a stiff rock sliding down an incline it cut the step back
+    // 9 times against 6 with fresh LU and 2 with this; docs/solver.md#failed-linear-solves).
     TALUS_PETSC(SNESSetOptionsPrefix(snes_, "talus_fallback_"));
     set_newton(snes_, 25, SNESLINESEARCHBT);
     KSP ksp;
     TALUS_PETSC(SNESGetKSP(snes_, &ksp));
     configure_direct(ksp);
+    set_right_gmres(ksp, 1e-8, 50);
+    factorization_.reused_mode = true;
     TALUS_PETSC(SNESSetConvergenceTest(snes_, physical_convergence<dim>, &scale_, nullptr));
   } else {
     configure(unknowns);
