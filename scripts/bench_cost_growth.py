@@ -18,7 +18,10 @@ size (the same physical loading: the first --steps steps, 0.01 s, in which
 the toe yields; on the finest grids that is hundreds of explicit steps, so
 Newton works harder there), the explicit one cfl 0.5 (10 x --steps steps).
 The figures are per step, and per particle and Newton iteration (issue 11's
-2 us target). One run per row: run it alone on the machine.
+2 us target): the CPU time of the whole process, and per particle-step also
+the time loop's alone (the summary's transfer and solve seconds, without the
+start-up, seeding and output that dominate the shortest runs). One run per
+row: run it alone on the machine.
 
     /usr/bin/python3 scripts/bench_cost_growth.py                  # 2D 8e2..8e5, 3D 1e3..2.2e5, about 14 minutes
     /usr/bin/python3 scripts/bench_cost_growth.py --dims 3
@@ -97,6 +100,10 @@ def main():
                 rows.append({
                     "dim": dim, "integrator": integrator, "particles": s["particles"], "cell": cell, "steps": n,
                     "cpu": cpu, "ms/step": 1e3 * cpu / n, "us/particle-step": 1e6 * cpu / (n * s["particles"]),
+                    # The time loop alone (transfers and solves, one thread:
+                    # its wall time is its CPU time), without the start-up,
+                    # seeding and output that dominate the shortest runs.
+                    "loop us/particle-step": 1e6 * (s["transfer_seconds"] + s["solve_seconds"]) / (n * s["particles"]),
                     "us/particle-Newton": 1e6 * cpu / (newton * s["particles"]) if newton else "-",
                     "Newton/step": newton / n, "Krylov/Newton": s["linear_iterations"] / newton if newton else "-",
                     "transfer %": 100 * s["transfer_seconds"] / wall, "solve %": 100 * s["solve_seconds"] / wall,
@@ -112,6 +119,7 @@ def main():
     columns = [("dim", "dim", "{}"), ("integrator", "integrator", "{}"), ("particles", "particles", "{:,}"),
                ("steps", "steps", "{}"), ("ms/step", "ms/step", "{:.2f}"),
                ("us/particle-step", "µs/particle-step", "{:.2f}"),
+               ("loop us/particle-step", "time loop µs/particle-step", "{:.2f}"),
                ("us/particle-Newton", "µs/particle-Newton", "{:.2f}"), ("Newton/step", "Newton/step", "{:.1f}"),
                ("Krylov/Newton", "Krylov/Newton", "{:.1f}"), ("transfer %", "transfers %", "{:.0f}"),
                ("solve %", "solve %", "{:.0f}"), ("contact %", "of which contact %", "{:.1f}"),
