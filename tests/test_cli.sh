@@ -164,6 +164,8 @@ refused() {
 refused "-talus_ksp_type nonsense" "PETSc option -talus_ksp_type nonsense: not a Krylov method"
 refused "-talus_snes_rtol nan" "PETSc option -talus_snes_rtol nan: expected a finite number >= 0"
 refused "-talus_pc_type nothing" "PETSc option -talus_pc_type nothing: not a preconditioner"
+refused "-talus_snes_linesearch_order 1" "PETSc option -talus_snes_linesearch_order 1: expected 2 (quadratic) or 3 (cubic)"
+refused "-talus_snes_linesearch_order cubic" "PETSc option -talus_snes_linesearch_order cubic: expected 2 (quadratic) or 3 (cubic)"
 
 # A misspelled solver option is refused before anything is written: no
 # configuration of the solver reads it (a throwaway one is configured below

@@ -60,6 +60,12 @@ std::string petsc_option_problem(const std::string& name, const std::string& val
     return petsc_accepts<Mat>(comm, value, create_matrix, MatSetType, MatDestroy)
                ? ""
                : "not a matrix type of this PETSc (e.g. aij, baij)";
+  if (ends_with(name, "linesearch_order")) {
+    // bt fits quadratics (2) or cubics (3); PETSc stops at the first step
+    // with any other order (docs/solver.md#the-backtracking-order).
+    if (value != "2" && value != "3") return "expected 2 (quadratic) or 3 (cubic)";
+    return "";
+  }
   if (ends_with(name, "rtol") || ends_with(name, "atol") || ends_with(name, "stol") || ends_with(name, "divtol") ||
       ends_with(name, "_damping") || ends_with(name, "ew_rtol0") || ends_with(name, "ew_rtolmax") ||
       ends_with(name, "ew_gamma") || ends_with(name, "ew_alpha")) {
