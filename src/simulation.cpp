@@ -1,4 +1,5 @@
 #include "talus/simulation.hpp"
+#include "talus/solver/petsc_options.hpp"
 #include "talus/solver/step_control.hpp"
 
 #include <algorithm>
@@ -44,8 +45,16 @@ std::string unused_solver_options() {
 
 template <int dim>
 void check_solver_options(const CaseConfig& config, MPI_Comm comm) {
+  // Values first (a type PETSc does not know, or one that would crash the
+  // rehearsal below), then the rehearsal of the configurations.
+  check_petsc_options(comm);
+  // A bound on the unknowns: every grid function of every velocity field
+  // (quadratic B-splines add one function per axis; domain quadrature none).
+  double max_unknowns = static_cast<double>(dim) * config.contact.field_count;
+  for (int a = 0; a < dim; ++a)
+    max_unknowns *= std::ceil((config.grid.upper[a] - config.grid.lower[a]) / config.grid.cell_size) + 3.0;
   const std::vector<std::string> unread =
-      NewtonSolver<dim>::options_read_by_no_configuration(comm, config.solver.direct_solver_limit);
+      NewtonSolver<dim>::options_read_by_no_configuration(comm, config.solver.direct_solver_limit, max_unknowns);
   if (unread.empty()) return;
   std::string list;
   for (const std::string& name : unread) {

@@ -50,10 +50,112 @@ bool read_at_setup(const std::string& name) {
   return false;
 }
 
+// A small nonlinear system of the Jacobian's kind (blocks of dim x dim,
+// block tridiagonal, nonsymmetric): F(x) = A x + x^3 / 10 - 1. Solving it
+// once with the configured solver makes PETSc check what it checks only
+// when it sets up or solves (a factorization's fill and ordering, a Krylov
+// method's side and norm, a line search or solver type that needs what
+// talus does not give it), so that such an option is refused before the run
+// instead of stopping it at its first step.
+struct Rehearsal {
+  int dim = 2;
+  PetscInt first = 0;         // this rank's first block (global)
+  PetscInt local_blocks = 64;  // coupled among themselves only, not across ranks (a pipelined Krylov method loops on fewer)
+};
+
+PetscErrorCode rehearsal_fill(const Rehearsal& r, Mat P, const PetscScalar* x) {
+  PetscCall(MatZeroEntries(P));
+  for (PetscInt b = r.first; b < r.first + r.local_blocks; ++b)
+    for (int c = 0; c < r.dim; ++c) {
+      const PetscInt row = b * r.dim + c;
+      const PetscScalar xi = x ? x[(b - r.first) * r.dim + c] : 0.0;
+      PetscCall(MatSetValue(P, row, row, 4.0 + 0.3 * xi * xi, INSERT_VALUES));
+      if (c + 1 < r.dim) PetscCall(MatSetValue(P, row, row + 1, 0.5, INSERT_VALUES));
+      if (b > r.first) PetscCall(MatSetValue(P, row, row - r.dim, -1.0, INSERT_VALUES));
+      if (b + 1 < r.first + r.local_blocks) PetscCall(MatSetValue(P, row, row + r.dim, -1.0, INSERT_VALUES));
+    }
+  PetscCall(MatAssemblyBegin(P, MAT_FINAL_ASSEMBLY));
+  return MatAssemblyEnd(P, MAT_FINAL_ASSEMBLY);
+}
+
+PetscErrorCode rehearsal_residual(SNES, Vec x, Vec f, void* context) {
+  const auto& r = *static_cast<const Rehearsal*>(context);
+  const PetscScalar* xa;
+  PetscScalar* fa;
+  PetscCall(VecGetArrayRead(x, &xa));
+  PetscCall(VecGetArray(f, &fa));
+  // Rows of A x from this rank's entries alone (its blocks couple only
+  // among themselves).
+  for (PetscInt k = 0; k < r.local_blocks * r.dim; ++k) {
+    const int c = static_cast<int>(k % r.dim);
+    PetscScalar v = 4.0 * xa[k] + (c + 1 < r.dim ? 0.5 * xa[k + 1] : 0.0);
+    if (k >= r.dim) v -= xa[k - r.dim];
+    if (k + r.dim < r.local_blocks * r.dim) v -= xa[k + r.dim];
+    fa[k] = v + 0.1 * xa[k] * xa[k] * xa[k] - 1.0;
+  }
+  PetscCall(VecRestoreArrayRead(x, &xa));
+  return VecRestoreArray(f, &fa);
+}
+
+PetscErrorCode rehearsal_jacobian(SNES, Vec x, Mat J, Mat P, void* context) {
+  const auto& r = *static_cast<const Rehearsal*>(context);
+  const PetscScalar* xa;
+  PetscCall(VecGetArrayRead(x, &xa));
+  PetscCall(rehearsal_fill(r, P, xa));
+  PetscCall(VecRestoreArrayRead(x, &xa));
+  if (J != P) {
+    PetscCall(MatAssemblyBegin(J, MAT_FINAL_ASSEMBLY));
+    PetscCall(MatAssemblyEnd(J, MAT_FINAL_ASSEMBLY));
+  }
+  return 0;
+}
+
+// One solve of the rehearsal system with `snes` as configured, its matrix of
+// `type` with the options' -talus_mat_type. Each rank holds its own blocks,
+// uncoupled from the other ranks' (a block-diagonal matrix across ranks), so
+// that the residual needs no communication.
+void rehearse_solve(MPI_Comm comm, SNES snes, MatType type, int dim) {
+  Rehearsal r;
+  r.dim = dim;
+  const PetscInt n = r.local_blocks * dim;
+  Mat P = nullptr;
+  Vec x = nullptr, f = nullptr;
+  const auto cleanup = [&] {
+    MatDestroy(&P);
+    VecDestroy(&x);
+    VecDestroy(&f);
+  };
+  try {
+    TALUS_PETSC(MatCreate(comm, &P));
+    TALUS_PETSC(MatSetSizes(P, n, n, PETSC_DETERMINE, PETSC_DETERMINE));
+    TALUS_PETSC(MatSetBlockSize(P, dim));
+    TALUS_PETSC(MatSetType(P, type));
+    TALUS_PETSC(MatSetOptionsPrefix(P, "talus_"));
+    TALUS_PETSC(MatSetFromOptions(P));
+    std::vector<PetscInt> d_nnz(static_cast<std::size_t>(r.local_blocks), 3), o_nnz(d_nnz.size(), 0);
+    TALUS_PETSC(MatXAIJSetPreallocation(P, dim, d_nnz.data(), o_nnz.data(), nullptr, nullptr));
+    PetscInt row_start = 0;
+    TALUS_PETSC(MatGetOwnershipRange(P, &row_start, nullptr));
+    r.first = row_start / dim;
+    TALUS_PETSC(MatCreateVecs(P, &x, &f));
+    TALUS_PETSC(VecSet(x, 0.0));
+    TALUS_PETSC(SNESSetFunction(snes, f, rehearsal_residual, &r));
+    TALUS_PETSC(SNESSetJacobian(snes, P, P, rehearsal_jacobian, &r));
+    // PETSc's own test: the rehearsal is about the options, not the balance.
+    TALUS_PETSC(SNESSetConvergenceTest(snes, SNESConvergedDefault, nullptr, nullptr));
+    TALUS_PETSC(SNESSolve(snes, nullptr, x));
+  } catch (...) {
+    cleanup();
+    throw;
+  }
+  cleanup();
+}
+
 }  // namespace
 
 template <int dim>
-std::vector<std::string> NewtonSolver<dim>::options_read_by_no_configuration(MPI_Comm comm, PetscInt direct_limit) {
+std::vector<std::string> NewtonSolver<dim>::options_read_by_no_configuration(MPI_Comm comm, PetscInt direct_limit,
+                                                                             double max_unknowns) {
   const auto given = unread_talus_options();
   if (given.empty()) return {};
   // Configure a throwaway solver, below and above the direct limit, in a
@@ -74,6 +176,8 @@ std::vector<std::string> NewtonSolver<dim>::options_read_by_no_configuration(MPI
       for (const PetscInt unknowns : {PetscInt(dim), direct_limit + 1}) {
         TALUS_PETSC(SNESCreate(comm, &rehearsal.snes_));
         rehearsal.configure(unknowns);
+        if (unknowns <= direct_limit || max_unknowns > static_cast<double>(direct_limit))
+          rehearse_solve(comm, rehearsal.snes_, rehearsal.matrix_type(), dim);
         TALUS_PETSC(SNESDestroy(&rehearsal.snes_));
       }
       Mat matrix = nullptr;
@@ -114,8 +218,8 @@ std::vector<std::string> NewtonSolver<dim>::options_read_by_no_configuration(MPI
   return unread;
 }
 
-template std::vector<std::string> NewtonSolver<2>::options_read_by_no_configuration(MPI_Comm, PetscInt);
-template std::vector<std::string> NewtonSolver<3>::options_read_by_no_configuration(MPI_Comm, PetscInt);
+template std::vector<std::string> NewtonSolver<2>::options_read_by_no_configuration(MPI_Comm, PetscInt, double);
+template std::vector<std::string> NewtonSolver<3>::options_read_by_no_configuration(MPI_Comm, PetscInt, double);
 
 // A talus-specific count option -talus_<name> (an integer in [0, 1e6]),
 // read once, before the run writes anything. Parsed here: PETSc's own parser

@@ -79,7 +79,12 @@ class NewtonSolver {
   // whose value PETSc refused. Options read only at set-up (block and
   // multigrid sub-solvers, viewers, the LU fallback) are left to the warning
   // after the first step (docs/command_line.md#petsc-options).
-  static std::vector<std::string> options_read_by_no_configuration(MPI_Comm comm, PetscInt direct_limit);
+  // The rehearsal also solves a small system with each configuration that
+  // can occur: the one above direct_limit only if max_unknowns (a bound on
+  // the case's unknowns) exceeds it. A PETSc error there is an InputError
+  // naming the option.
+  static std::vector<std::string> options_read_by_no_configuration(MPI_Comm comm, PetscInt direct_limit,
+                                                                   double max_unknowns = 1e300);
 
   // Solves F(v) = 0; on success the system holds v^{n+1} (MomentumSystem::finish).
   NewtonReport solve(MomentumSystem<dim>& system);
