@@ -9,7 +9,9 @@
 #include <iomanip>
 #include <iostream>
 #include <limits>
+#include <map>
 #include <ostream>
+#include <set>
 #include <sstream>
 
 #include "talus/io/yaml_section.hpp"
@@ -18,12 +20,21 @@
 namespace talus {
 
 void apply_case_petsc_options(const CaseConfig& config) {
-  for (const auto& [key, value] : config.solver.petsc_options) {
-    const std::string name = "-talus_" + key;
-    PetscBool set = PETSC_FALSE;
-    TALUS_PETSC(PetscOptionsHasName(nullptr, nullptr, name.c_str(), &set));
-    if (!set) TALUS_PETSC(PetscOptionsSetValue(nullptr, name.c_str(), value.empty() ? nullptr : value.c_str()));
+  // Which options the command line gave, from the list of options not used
+  // yet: asking PETSc for one (PetscOptionsHasName) would mark it used, and
+  // a used option escapes the checks of check_solver_options.
+  std::set<std::string> given;
+  {
+    PetscInt count = 0;
+    char** names = nullptr;
+    char** values = nullptr;
+    TALUS_PETSC(PetscOptionsLeftGet(nullptr, &count, &names, &values));
+    for (PetscInt k = 0; k < count; ++k) given.insert(names[k]);
+    TALUS_PETSC(PetscOptionsLeftRestore(nullptr, &count, &names, &values));
   }
+  for (const auto& [key, value] : config.solver.petsc_options)
+    if (!given.count("talus_" + key))  // the command line wins
+      TALUS_PETSC(PetscOptionsSetValue(nullptr, ("-talus_" + key).c_str(), value.empty() ? nullptr : value.c_str()));
 }
 
 std::string unused_solver_options() {
@@ -53,8 +64,30 @@ void check_solver_options(const CaseConfig& config, MPI_Comm comm) {
   double max_unknowns = static_cast<double>(dim) * config.contact.field_count;
   for (int a = 0; a < dim; ++a)
     max_unknowns *= std::ceil((config.grid.upper[a] - config.grid.lower[a]) / config.grid.cell_size) + 3.0;
+  // Where the case file sets an option that is in force (the command line
+  // wins under the same name: then the case file is not named).
+  // (Read from the list of options not used yet: querying an option would
+  // mark it used, and the rehearsal checks the unused ones.)
+  std::map<std::string, std::string> case_file_options;
+  {
+    PetscInt count = 0;
+    char** names = nullptr;
+    char** values = nullptr;
+    TALUS_PETSC(PetscOptionsLeftGet(nullptr, &count, &names, &values));
+    for (PetscInt k = 0; k < count; ++k) {
+      const std::string name = names[k], value = values[k] ? values[k] : "";
+      if (name.rfind("talus_", 0) != 0) continue;
+      const std::string key = name.substr(6);
+      const auto where = config.solver.petsc_option_where.find(key);
+      for (const auto& [file_key, file_value] : config.solver.petsc_options)
+        if (file_key == key && file_value == value && where != config.solver.petsc_option_where.end())
+          case_file_options[key] = where->second;
+    }
+    TALUS_PETSC(PetscOptionsLeftRestore(nullptr, &count, &names, &values));
+  }
   const std::vector<std::string> unread =
-      NewtonSolver<dim>::options_read_by_no_configuration(comm, config.solver.direct_solver_limit, max_unknowns);
+      NewtonSolver<dim>::options_read_by_no_configuration(comm, config.solver.direct_solver_limit, max_unknowns,
+                                                          &case_file_options);
   if (unread.empty()) return;
   std::string list;
   for (const std::string& name : unread) {

@@ -206,6 +206,29 @@ refused "-talus_snes_mf_operator" "PETSc option -talus_snes_mf_operator : talus'
 # direct limit (GAMG, which refuses BAIJ) cannot occur in this case.
 "$talus" check bad_option.yaml -talus_mat_type baij > good.log 2>&1 ||
   { echo "FAIL: -talus_mat_type baij refused below the direct limit"; cat good.log; exit 1; }
+# The same from the case file's solver.petsc_options: the file line is
+# named. And a command-line option that the case file also sets is checked
+# as well (it wins; before 2026-11-27 asking whether it was given marked it
+# used, and it escaped the checks and stopped the first step).
+grep -q "^solver:" bad_option.yaml && { echo "FAIL: bad_option.yaml has a solver section"; exit 1; }
+cp bad_option.yaml file_option.yaml
+printf 'solver:\n  petsc_options:\n    pc_factor_fill: 0\n' >> file_option.yaml
+line=$(grep -n "pc_factor_fill" file_option.yaml | cut -d: -f1)
+set +e
+"$talus" run file_option.yaml > file_option.log 2>&1; code=$?
+set -e
+[ "$code" -eq 2 ] || { echo "FAIL: exit code $code for a case file's pc_factor_fill 0 (want 2)"; cat file_option.log; exit 1; }
+grep -qF "talus: error: file_option.yaml:$line: solver.petsc_options.pc_factor_fill = 0: PETSc option -talus_pc_factor_fill 0: PETSc does not accept it" file_option.log ||
+  { echo "FAIL: message for a case file's pc_factor_fill 0"; cat file_option.log; exit 1; }
+sed -i 's/pc_factor_fill: 0/pc_factor_fill: 2/' file_option.yaml
+set +e
+"$talus" run file_option.yaml -talus_pc_factor_fill -1 > file_option.log 2>&1; code=$?
+set -e
+[ "$code" -eq 2 ] || { echo "FAIL: exit code $code for -talus_pc_factor_fill -1 over the case file's (want 2)"; cat file_option.log; exit 1; }
+grep -qF "talus: error: PETSc option -talus_pc_factor_fill -1: PETSc does not accept it" file_option.log ||
+  { echo "FAIL: message for -talus_pc_factor_fill -1 over the case file's"; cat file_option.log; exit 1; }
+! grep -q "PETSC ERROR" file_option.log || { echo "FAIL: a PETSc trace for -talus_pc_factor_fill -1"; exit 1; }
+[ ! -e "$work/bad_option_out" ] || { echo "FAIL: a refused case-file option wrote output"; exit 1; }
 # With NGMRES the outer Newton has no linear solver: its -talus_pc_type is
 # for another configuration (the inner Newton's is -talus_npc_pc_type).
 refused "-talus_snes_type ngmres -talus_pc_type ilu" "PETSc option -talus_pc_type: read by no solver configuration"

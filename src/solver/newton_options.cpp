@@ -154,8 +154,8 @@ void rehearse_solve(MPI_Comm comm, SNES snes, MatType type, int dim) {
 }  // namespace
 
 template <int dim>
-std::vector<std::string> NewtonSolver<dim>::options_read_by_no_configuration(MPI_Comm comm, PetscInt direct_limit,
-                                                                             double max_unknowns) {
+std::vector<std::string> NewtonSolver<dim>::options_read_by_no_configuration(
+    MPI_Comm comm, PetscInt direct_limit, double max_unknowns, const std::map<std::string, std::string>* where) {
   const auto given = unread_talus_options();
   if (given.empty()) return {};
   // Configure a throwaway solver, below and above the direct limit, in a
@@ -206,9 +206,13 @@ std::vector<std::string> NewtonSolver<dim>::options_read_by_no_configuration(MPI
     for (const auto& option : given) {
       std::string why;
       rehearse({option}, &why);
-      if (!why.empty())
-        throw InputError("PETSc option -" + option.first + (option.second.empty() ? "" : " " + option.second) +
-                         ": PETSc does not accept it (" + why + ")");
+      if (why.empty()) continue;
+      std::string named = "PETSc option -" + option.first + (option.second.empty() ? "" : " " + option.second);
+      if (where) {  // set in the case file (the command line would win, under the same name)
+        const auto set = where->find(option.first.substr(6));
+        if (set != where->end()) named = set->second + " = " + option.second + ": " + named;
+      }
+      throw InputError(named + ": PETSc does not accept it (" + why + ")");
     }
     throw InputError("PETSc options: PETSc does not accept them together (" + refused + ")");
   }
@@ -218,8 +222,10 @@ std::vector<std::string> NewtonSolver<dim>::options_read_by_no_configuration(MPI
   return unread;
 }
 
-template std::vector<std::string> NewtonSolver<2>::options_read_by_no_configuration(MPI_Comm, PetscInt, double);
-template std::vector<std::string> NewtonSolver<3>::options_read_by_no_configuration(MPI_Comm, PetscInt, double);
+template std::vector<std::string> NewtonSolver<2>::options_read_by_no_configuration(
+    MPI_Comm, PetscInt, double, const std::map<std::string, std::string>*);
+template std::vector<std::string> NewtonSolver<3>::options_read_by_no_configuration(
+    MPI_Comm, PetscInt, double, const std::map<std::string, std::string>*);
 
 // A talus-specific count option -talus_<name> (an integer in [0, 1e6]),
 // read once, before the run writes anything. Parsed here: PETSc's own parser

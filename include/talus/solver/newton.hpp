@@ -28,6 +28,7 @@
 
 #include <chrono>
 #include <string>
+#include <map>
 #include <vector>
 
 #include "talus/solver/momentum_system.hpp"
@@ -83,8 +84,11 @@ class NewtonSolver {
   // can occur: the one above direct_limit only if max_unknowns (a bound on
   // the case's unknowns) exceeds it. A PETSc error there is an InputError
   // naming the option.
-  static std::vector<std::string> options_read_by_no_configuration(MPI_Comm comm, PetscInt direct_limit,
-                                                                   double max_unknowns = 1e300);
+  // `where`: for options from the case file, key (without talus_) -> where
+  // the file sets it, named in the error.
+  static std::vector<std::string> options_read_by_no_configuration(
+      MPI_Comm comm, PetscInt direct_limit, double max_unknowns = 1e300,
+      const std::map<std::string, std::string>* where = nullptr);
 
   // Solves F(v) = 0; on success the system holds v^{n+1} (MomentumSystem::finish).
   NewtonReport solve(MomentumSystem<dim>& system);
