@@ -284,8 +284,8 @@ void NewtonSolver<dim>::configure(PetscInt unknowns) {
     // solve, unless the side is an option too.
     PetscBool gmres = PETSC_FALSE, side_given = PETSC_FALSE;
     TALUS_PETSC(PetscObjectTypeCompareAny(reinterpret_cast<PetscObject>(ksp), &gmres, KSPGMRES, KSPFGMRES,
-                                          KSPLGMRES, KSPDGMRES, KSPPGMRES, KSPBCGS, KSPIBCGS, KSPFBCGS, KSPFBCGSR, KSPBCGSL,
-                                          KSPPREONLY, ""));
+                                          KSPLGMRES, KSPDGMRES, KSPPGMRES, KSPBCGS, KSPIBCGS, KSPFBCGS, KSPFBCGSR,
+                                          KSPBCGSL, KSPPREONLY, ""));
     TALUS_PETSC(PetscOptionsHasName(nullptr, "talus_", "-ksp_pc_side", &side_given));
     if (!gmres && !side_given) TALUS_PETSC(KSPSetPCSide(ksp, PC_SIDE_DEFAULT));
   }

@@ -60,7 +60,9 @@ bool read_at_setup(const std::string& name) {
 struct Rehearsal {
   int dim = 2;
   PetscInt first = 0;         // this rank's first block (global)
-  PetscInt local_blocks = 64;  // coupled among themselves only, not across ranks (a pipelined Krylov method loops on fewer)
+  // Coupled among themselves only, not across ranks; enough unknowns for
+  // every Krylov method's start-up.
+  PetscInt local_blocks = 64;
 };
 
 PetscErrorCode rehearsal_fill(const Rehearsal& r, Mat P, const PetscScalar* x) {
