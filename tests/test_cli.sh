@@ -163,6 +163,8 @@ refused() {
 # PETSc options with values this PETSc cannot use: exit 2 before anything is written.
 refused "-talus_ksp_type nonsense" "PETSc option -talus_ksp_type nonsense: not a Krylov method"
 refused "-talus_snes_rtol nan" "PETSc option -talus_snes_rtol nan: expected a finite number >= 0"
+refused "-talus_snes_linesearch_minlambda nan" "PETSc option -talus_snes_linesearch_minlambda nan: expected a finite number"
+refused "-talus_pc_factor_zeropivot inf" "PETSc option -talus_pc_factor_zeropivot inf: expected a finite number"
 refused "-talus_pc_type nothing" "PETSc option -talus_pc_type nothing: not a preconditioner"
 refused "-talus_snes_linesearch_order 1" "PETSc option -talus_snes_linesearch_order 1: expected 2 (quadratic) or 3 (cubic)"
 refused "-talus_snes_linesearch_order cubic" "PETSc option -talus_snes_linesearch_order cubic: expected 2 (quadratic) or 3 (cubic)"

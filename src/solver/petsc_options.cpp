@@ -99,6 +99,13 @@ std::string petsc_option_problem(const std::string& name, const std::string& val
     const long n = std::strtol(value.c_str(), &end, 10);
     if (value.empty() || *end != '\0' || errno == ERANGE || n < 0 || n > 100000000L)
       return "expected an integer in [0, 1e8]";
+  } else {
+    // Any other number: finite. PETSc takes "nan" and "inf" for a real
+    // option and would run with them (a NaN line-search bound, zero pivot
+    // or GAMG threshold compares false everywhere).
+    char* end = nullptr;
+    const double x = std::strtod(value.c_str(), &end);
+    if (!value.empty() && *end == '\0' && !std::isfinite(x)) return "expected a finite number";
   }
   return "";
 }
