@@ -231,6 +231,13 @@ grep -qF "talus: error: PETSc option -talus_pc_factor_fill -1: PETSc does not ac
   { echo "FAIL: message for -talus_pc_factor_fill -1 over the case file's"; cat file_option.log; exit 1; }
 ! grep -q "PETSC ERROR" file_option.log || { echo "FAIL: a PETSc trace for -talus_pc_factor_fill -1"; exit 1; }
 [ ! -e "$work/bad_option_out" ] || { echo "FAIL: a refused case-file option wrote output"; exit 1; }
+# The rehearsal prints nothing of the user's monitors: the first line of
+# the run is talus's own.
+"$talus" run bad_option.yaml --overwrite --quiet -talus_snes_monitor -talus_ksp_converged_reason > monitor.log 2> monitor.err ||
+  { echo "FAIL: run with monitors"; cat monitor.log monitor.err; exit 1; }
+head -1 monitor.log | grep -q "^talus: " || { echo "FAIL: the rehearsal printed before the run"; head -3 monitor.log; exit 1; }
+grep -q "SNES Function norm" monitor.log || { echo "FAIL: no monitor output from the run"; exit 1; }
+rm -rf "$work/bad_option_out"
 # With NGMRES the outer Newton has no linear solver: its -talus_pc_type is
 # for another configuration (the inner Newton's is -talus_npc_pc_type).
 refused "-talus_snes_type ngmres -talus_pc_type ilu" "PETSc option -talus_pc_type: read by no solver configuration"

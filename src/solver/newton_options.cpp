@@ -2,6 +2,8 @@
 // (NewtonSolver::options_read_by_no_configuration, docs/command_line.md#petsc-options):
 // a throwaway solver configured in a copy of the options database.
 #include <cerrno>
+#include <cstdarg>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <exception>
@@ -116,13 +118,21 @@ PetscErrorCode rehearsal_jacobian(SNES, Vec x, Mat J, Mat P, void* context) {
 // `type` with the options' -talus_mat_type. Each rank holds its own blocks,
 // uncoupled from the other ranks' (a block-diagonal matrix across ranks), so
 // that the residual needs no communication.
+PetscErrorCode print_nothing(FILE*, const char[], va_list) { return 0; }
+
 void rehearse_solve(MPI_Comm comm, SNES snes, MatType type, int dim) {
   Rehearsal r;
   r.dim = dim;
   const PetscInt n = r.local_blocks * dim;
   Mat P = nullptr;
   Vec x = nullptr, f = nullptr;
+  // The user's monitors, converged reasons and views print nothing for the
+  // rehearsal: everything PETSc prints goes through PetscVFPrintf (its
+  // errors do not, and are kept by the error handler).
+  const auto printer = PetscVFPrintf;
+  PetscVFPrintf = print_nothing;
   const auto cleanup = [&] {
+    PetscVFPrintf = printer;
     MatDestroy(&P);
     VecDestroy(&x);
     VecDestroy(&f);
