@@ -1,5 +1,4 @@
 #include "talus/simulation.hpp"
-#include "talus/solver/petsc_options.hpp"
 #include "talus/solver/step_control.hpp"
 
 #include <algorithm>
@@ -9,100 +8,13 @@
 #include <iomanip>
 #include <iostream>
 #include <limits>
-#include <map>
 #include <ostream>
-#include <set>
 #include <sstream>
 
 #include "talus/io/yaml_section.hpp"
 #include "talus/particles/seeding.hpp"
 
 namespace talus {
-
-void apply_case_petsc_options(const CaseConfig& config) {
-  // Which options the command line gave, from the list of options not used
-  // yet: asking PETSc for one (PetscOptionsHasName) would mark it used, and
-  // a used option escapes the checks of check_solver_options.
-  std::set<std::string> given;
-  {
-    PetscInt count = 0;
-    char** names = nullptr;
-    char** values = nullptr;
-    TALUS_PETSC(PetscOptionsLeftGet(nullptr, &count, &names, &values));
-    for (PetscInt k = 0; k < count; ++k) given.insert(names[k]);
-    TALUS_PETSC(PetscOptionsLeftRestore(nullptr, &count, &names, &values));
-  }
-  for (const auto& [key, value] : config.solver.petsc_options)
-    if (!given.count("talus_" + key))  // the command line wins
-      TALUS_PETSC(PetscOptionsSetValue(nullptr, ("-talus_" + key).c_str(), value.empty() ? nullptr : value.c_str()));
-}
-
-std::string unused_solver_options() {
-  PetscInt count = 0;
-  char** names = nullptr;
-  char** values = nullptr;
-  TALUS_PETSC(PetscOptionsLeftGet(nullptr, &count, &names, &values));
-  std::string list;
-  for (PetscInt k = 0; k < count; ++k) {
-    const std::string name = names[k];
-    // Read only when they are needed: the LU retry after a failed linear
-    // solve, the inner solver of a nonlinear preconditioner.
-    if (name.rfind("talus_", 0) != 0 || name.rfind("talus_fallback_", 0) == 0) continue;
-    list += (list.empty() ? "-" : ", -") + name;
-  }
-  TALUS_PETSC(PetscOptionsLeftRestore(nullptr, &count, &names, &values));
-  return list;
-}
-
-template <int dim>
-void check_solver_options(const CaseConfig& config, MPI_Comm comm) {
-  // Values first (a type PETSc does not know, or one that would crash the
-  // rehearsal below), then the rehearsal of the configurations.
-  check_petsc_options(comm);
-  // A bound on the unknowns: every grid function of every velocity field
-  // (quadratic B-splines add one function per axis; domain quadrature none).
-  double max_unknowns = static_cast<double>(dim) * config.contact.field_count;
-  for (int a = 0; a < dim; ++a)
-    max_unknowns *= std::ceil((config.grid.upper[a] - config.grid.lower[a]) / config.grid.cell_size) + 3.0;
-  // Where the case file sets an option that is in force (the command line
-  // wins under the same name: then the case file is not named).
-  // (Read from the list of options not used yet: querying an option would
-  // mark it used, and the rehearsal checks the unused ones.)
-  std::map<std::string, std::string> case_file_options;
-  {
-    PetscInt count = 0;
-    char** names = nullptr;
-    char** values = nullptr;
-    TALUS_PETSC(PetscOptionsLeftGet(nullptr, &count, &names, &values));
-    for (PetscInt k = 0; k < count; ++k) {
-      const std::string name = names[k], value = values[k] ? values[k] : "";
-      if (name.rfind("talus_", 0) != 0) continue;
-      const std::string key = name.substr(6);
-      const auto where = config.solver.petsc_option_where.find(key);
-      for (const auto& [file_key, file_value] : config.solver.petsc_options)
-        if (file_key == key && file_value == value && where != config.solver.petsc_option_where.end())
-          case_file_options[key] = where->second;
-    }
-    TALUS_PETSC(PetscOptionsLeftRestore(nullptr, &count, &names, &values));
-  }
-  const std::vector<std::string> unread =
-      NewtonSolver<dim>::options_read_by_no_configuration(comm, config.solver.direct_solver_limit, max_unknowns,
-                                                          &case_file_options);
-  if (unread.empty()) return;
-  std::string list;
-  for (const std::string& name : unread) {
-    list += (list.empty() ? "-" : ", -") + name;
-    // Named where the case file gives it (the command line would win, under the same name).
-    const auto where = config.solver.petsc_option_where.find(name.substr(6));
-    if (where != config.solver.petsc_option_where.end()) list += " (" + where->second + ")";
-  }
-  throw InputError((unread.size() == 1 ? "PETSc option " : "PETSc options ") + list +
-                   ": read by no solver configuration of talus (misspelled? docs/solver.md lists the options; "
-                   "-talus_ is the prefix of every solver option)");
-}
-
-template void check_solver_options<2>(const CaseConfig&, MPI_Comm);
-template void check_solver_options<3>(const CaseConfig&, MPI_Comm);
 
 template <int dim>
 Simulation<dim>::Simulation(const CaseConfig& config, MPI_Comm comm) : config_(config), comm_(comm) {

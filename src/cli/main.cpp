@@ -273,8 +273,7 @@ int main(int argc, char** argv) {
                    "quadratic_bspline (the default) or grid.quadrature: domain (GIMP) unless every particle stays "
                    "within its cell\n";
     if (command == "check") {
-      talus::apply_case_petsc_options(config);
-      talus::check_petsc_options(PETSC_COMM_WORLD);
+      talus::apply_case_petsc_options(config);  // check_solver_options checks the values first
       if (config.dim == 2)
         talus::check_solver_options<2>(config, PETSC_COMM_WORLD);
       else

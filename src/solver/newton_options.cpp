@@ -13,6 +13,7 @@
 
 #include "talus/solver/newton.hpp"
 #include "newton_option_readers.hpp"
+#include "talus/solver/petsc_options.hpp"
 
 namespace talus {
 
@@ -29,14 +30,9 @@ PetscErrorCode keep_message(MPI_Comm, int, const char*, const char*, PetscErrorC
 
 // The -talus_ options of the global database not read so far, as name/value pairs.
 std::vector<std::pair<std::string, std::string>> unread_talus_options() {
-  PetscInt count = 0;
-  char** names = nullptr;
-  char** values = nullptr;
-  TALUS_PETSC(PetscOptionsLeftGet(nullptr, &count, &names, &values));
   std::vector<std::pair<std::string, std::string>> left;
-  for (PetscInt k = 0; k < count; ++k)
-    if (std::strncmp(names[k], "talus_", 6) == 0) left.emplace_back(names[k], values[k] ? values[k] : "");
-  TALUS_PETSC(PetscOptionsLeftRestore(nullptr, &count, &names, &values));
+  for (auto& option : unused_petsc_options())
+    if (option.first.rfind("talus_", 0) == 0) left.push_back(std::move(option));
   return left;
 }
 

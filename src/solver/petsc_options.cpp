@@ -110,21 +110,23 @@ std::string petsc_option_problem(const std::string& name, const std::string& val
   return "";
 }
 
-void check_petsc_options(MPI_Comm comm) {
-  // Every option given so far is still unused: PetscOptionsLeftGet lists
-  // them all (names without the dash).
+std::vector<std::pair<std::string, std::string>> unused_petsc_options() {
   PetscInt count = 0;
   char** names = nullptr;
   char** values = nullptr;
   TALUS_PETSC(PetscOptionsLeftGet(nullptr, &count, &names, &values));
-  std::string problem;
-  for (PetscInt k = 0; k < count && problem.empty(); ++k) {
-    const std::string name = names[k], value = values[k] ? values[k] : "";
-    const std::string why = petsc_option_problem(name, value, comm);
-    if (!why.empty()) problem = "PETSc option -" + name + " " + value + ": " + why;
-  }
+  std::vector<std::pair<std::string, std::string>> left;
+  for (PetscInt k = 0; k < count; ++k) left.emplace_back(names[k], values[k] ? values[k] : "");
   TALUS_PETSC(PetscOptionsLeftRestore(nullptr, &count, &names, &values));
-  if (!problem.empty()) throw InputError(problem);
+  return left;
+}
+
+void check_petsc_options(MPI_Comm comm) {
+  // Every option given so far is still unused.
+  for (const auto& [name, value] : unused_petsc_options()) {
+    const std::string why = petsc_option_problem(name, value, comm);
+    if (!why.empty()) throw InputError("PETSc option -" + name + " " + value + ": " + why);
+  }
 }
 
 }  // namespace talus

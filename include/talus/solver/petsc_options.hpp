@@ -3,6 +3,8 @@
 #include <mpi.h>
 
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace talus {
 
@@ -15,5 +17,9 @@ void check_petsc_options(MPI_Comm comm);
 // Why the PETSc option -name value is not valid ("" if it is); for the case
 // file's solver.petsc_options, checked where the case is read.
 std::string petsc_option_problem(const std::string& name, const std::string& value, MPI_Comm comm);
+// The options of the global database that nothing has read yet, as (name
+// without the dash, value) pairs. Unlike asking PETSc for one option, this
+// does not mark them used (a used option escapes the checks above).
+std::vector<std::pair<std::string, std::string>> unused_petsc_options();
 
 }  // namespace talus
