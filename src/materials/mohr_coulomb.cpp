@@ -270,6 +270,7 @@ void MohrCoulomb::update(const Voigt& rotated_stress, const Voigt& strain_increm
     M.col(p) = tensor_to_voigt(V.col(i) * V.col(k).transpose() + V.col(k) * V.col(i).transpose()) / std::sqrt(2.0);
   }
   out.stress = E * ret.stress;
+  if (out.stress_only) return;
   Eigen::Matrix<double, 6, 3> Es = E, Ms = M;
   Es.bottomRows<3>() *= 2.0;
   Ms.bottomRows<3>() *= 2.0;

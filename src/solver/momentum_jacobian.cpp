@@ -46,6 +46,7 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
   std::vector<int> partner;
   const std::vector<double> left = any_contacts_ ? contact_row_factors(v, partner) : std::vector<double>();
   if (!evaluated_at(v)) evaluate_particles(v);
+  commit_carried_stresses();
   const auto t_assembly = std::chrono::steady_clock::now();
   TALUS_PETSC(MatZeroEntries(J));
   // Particle contributions are first summed per (point, neighbour) block on

@@ -20,6 +20,7 @@ void MomentumSystem<dim>::prepare_operator(Vec v) {
   if (!rigid_.empty()) throw std::logic_error("the Jacobian operator does not hold rigid bodies' rows");
   if (any_contacts_) contact_factors(v);
   if (!evaluated_at(v)) evaluate_particles(v);
+  commit_carried_stresses();
   pack_stencils();
 }
 

@@ -174,6 +174,8 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
 
   const std::size_t np = stencils_.size();
   MaterialPointUpdate update;
+  const bool primal_dual = primal_dual_ && with_tangents_;
+  if (primal_dual) carried_.begin_evaluation(np);
   for (std::size_t p = 0; p < np; ++p) {
     if (rigid_particle(p)) {
       // A rigid body's particles do not strain: no stress, no internal force.
@@ -213,8 +215,22 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
     const bool closes_fully = closing && volumetric <= -separation_old_[p];
     const double closed = !closing ? 0.0 : closes_fully ? -separation_old_[p] : volumetric;
     strain.head<3>().array() -= closed / 3.0;
-    materials_[material_[p]]->update(rotated, strain, state_old_.data() + max_state_size * p,
-                                     state_end_.data() + max_state_size * p, update);
+    const Material& material = *materials_[material_[p]];
+    const double* state_old = state_old_.data() + max_state_size * p;
+    material.update(rotated, strain, state_old, state_end_.data() + max_state_size * p, update);
+    if (primal_dual) {
+      // The primal-dual tangent at the stress carried from the last iterate
+      // (primal_dual_tangent.hpp); an elastic particle needs none.
+      if (update.plastic_strain_increment.isZero(0.0)) {
+        carried_.record_elastic(p);
+      } else {
+        const Voigt trial = rotated + material.elastic_stiffness() * strain;
+        Voigt carried;
+        if (carried_.carried(p, trial, carried) && carried_far_from(carried, update.stress))
+          add_primal_dual_term(material, trial, carried, state_old, update);
+        carried_.record(p, update.stress, trial, update.trial_sensitivity);
+      }
+    }
     separation_end_[p] = separation_old_[p] + closed + update.separation_strain_increment;
     closed_voids_[p] = closed;
     rotated_stress_[p] = rotated;

@@ -175,6 +175,7 @@ NewtonSolver<dim>::NewtonSolver(MPI_Comm comm, PetscInt direct_limit, double bal
   scale_.time_fraction = real_option("balance_time_fraction", default_balance_time_fraction, 0.0, 1.0);
   scale_.time_cap = time_tolerance_cap;
   fallback_limit_ = count_option("direct_fallback_limit", default_direct_fallback_limit);
+  primal_dual_ = choice_option("newton_tangent", {"primal_dual", "consistent"}) == "primal_dual";
   ilu_fill_limit_ = count_option("ilu_fill_limit", default_ilu_fill_limit);
   predict_last_acceleration_ = choice_option("newton_predictor", {"last", "gravity"}) == "last";
   jacobian_choice_ = choice_option("jacobian", {"auto", "matrix", "operator"});
@@ -462,6 +463,7 @@ void NewtonSolver<dim>::build(MomentumSystem<dim>& system, PetscInt unknowns, Fa
 
 template <int dim>
 NewtonReport NewtonSolver<dim>::run_snes(MomentumSystem<dim>& system, Start start) {
+  system.set_primal_dual(primal_dual_);
   NewtonReport report;
   Vec v = system.initial_guess(false);
   started_from_last_ = starts_differ_ = false;
@@ -524,6 +526,7 @@ NewtonReport NewtonSolver<dim>::run_snes(MomentumSystem<dim>& system, Start star
   PetscInt linear_before = 0, linear_after = 0;
   TALUS_PETSC(KSPGetTotalIterations(ksp, &linear_before));
   TALUS_PETSC(SNESSolve(snes_, nullptr, v));
+  system.reset_carried_stresses();  // the next solve's first evaluation has none
   context_.start = context_.start_residual = nullptr;
   end_time_error(scale_);
   TALUS_PETSC(KSPGetTotalIterations(ksp, &linear_after));

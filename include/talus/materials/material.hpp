@@ -28,6 +28,9 @@ struct MaterialPointUpdate {
   // removes it from the particle's quadrature volume and closes it, stress
   // free, before any later compression loads the solid (docs/plasticity.md).
   double separation_strain_increment = 0.0;
+  // In: only the stress is wanted (a law may then leave the tangents and the
+  // strains unset).
+  bool stress_only = false;
 };
 
 inline constexpr int max_state_size = 2;

@@ -52,6 +52,7 @@
 #include "talus/materials/material.hpp"
 #include "talus/particles/rigid_body.hpp"
 #include "talus/solver/active_set.hpp"
+#include "talus/solver/primal_dual_tangent.hpp"
 #include "talus/solver/strain_increment.hpp"
 #include "talus/solver/energy_balance.hpp"
 #include "talus/solver/ghost_penalty.hpp"
@@ -118,6 +119,14 @@ class MomentumSystem {
   // The explicit step needs the stresses only: no tangents A_p (jacobian()
   // is then unavailable).
   void skip_tangents() { with_tangents_ = false; }
+  // The primal-dual tangent (primal_dual_tangent.hpp), on or off; a new
+  // Newton solve starts it from the consistent tangent.
+  void set_primal_dual(bool on) { primal_dual_ = on; }
+  void reset_carried_stresses() { carried_.reset(); }
+  // The last evaluation was at Newton's accepted iterate (the Jacobian's).
+  void commit_carried_stresses() {
+    if (primal_dual_) carried_.commit();
+  }
   // The strain increment of the step (strain_increment.hpp,
   // docs/formulation.md#the-strain-increment): linear (h sym L) by default.
   void set_strain_increment(StrainIncrement kind) { strain_increment_ = kind; }
@@ -209,6 +218,8 @@ class MomentumSystem {
   Vector<dim> gravity_;
   double h_, theta_;
   bool with_tangents_ = true;
+  bool primal_dual_ = false;
+  CarriedStresses<dim> carried_;
   StrainIncrement strain_increment_ = StrainIncrement::linear;
 
   // Committed particle state at the start of the step (frozen during Newton).

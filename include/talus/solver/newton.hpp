@@ -253,6 +253,7 @@ class NewtonSolver {
   bool stale_structure_ = false;
   long builds_ = 0;
   Scale scale_;
+  bool primal_dual_ = true;  // -talus_newton_tangent (primal_dual_tangent.hpp)
   SNES snes_ = nullptr;
   Mat J_ = nullptr;
   Mat J_operator_ = nullptr;  // MATSHELL over MomentumSystem::apply_jacobian, or none
