@@ -175,6 +175,7 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
   const std::size_t np = stencils_.size();
   MaterialPointUpdate update;
   const bool primal_dual = primal_dual_ && with_tangents_;
+  plastic_particles_ = 0;
   if (primal_dual) carried_.begin_evaluation(np);
   for (std::size_t p = 0; p < np; ++p) {
     if (rigid_particle(p)) {
@@ -241,6 +242,7 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
     }
     stress_end_[p] = update.stress;
     plastic_increment_[p] = update.plastic_strain_increment;
+    if (!update.plastic_strain_increment.isZero(0.0)) ++plastic_particles_;
 
     // A = d sigma^{n+1}_ij / d L_kl = h D[ij, kl] + S[ij, :] d sigma*/d L_kl, with
     // d sigma*_ij / d L_kl = h/2 (d_ik s_lj - d_il s_kj - s_ik d_lj + s_il d_kj).

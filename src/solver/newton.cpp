@@ -39,6 +39,8 @@ template <int dim>
 PetscErrorCode form_jacobian(SNES snes, Vec v, Mat J, Mat P, void* ctx) {
   auto* context = static_cast<typename NewtonSolver<dim>::CallbackContext*>(ctx);
   auto& factorization = *context->factorization;
+  if (context->adaptive_first_tolerance)
+    PetscCall(petsc_callback([&] { choose_first_tolerance(snes, context->system->plastic_particles()); }));
   // The linear solve follows this callback: its time runs from here to
   // record_linear_solve (not a KSP pre-solve hook: SNES's inexact Newton
   // sets its tolerance in that hook, and there is only one).
@@ -525,6 +527,7 @@ NewtonReport NewtonSolver<dim>::run_snes(MomentumSystem<dim>& system, Start star
   begin_time_error(scale_, system);
   PetscInt linear_before = 0, linear_after = 0;
   TALUS_PETSC(KSPGetTotalIterations(ksp, &linear_before));
+  context_.adaptive_first_tolerance = adaptive_first_tolerance(snes_);
   TALUS_PETSC(SNESSolve(snes_, nullptr, v));
   system.reset_carried_stresses();  // the next solve's first evaluation has none
   context_.start = context_.start_residual = nullptr;

@@ -3,6 +3,7 @@
 // the run writes anything (defined in newton_options.cpp).
 #include <petscsnes.h>
 
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -32,6 +33,15 @@ void set_right_gmres(KSP ksp, PetscReal rtol, PetscInt max_it);
 // so a line search that shortens the step to 10-50 % (large steps,
 // docs/solver.md#large-steps) does not pay for a direction to 1e-8.
 void set_inexact_newton(SNES snes);
+// Inexact Newton with a first tolerance the options do not fix: the solver
+// then chooses it at each solve's first Jacobian (choose_first_tolerance).
+bool adaptive_first_tolerance(SNES snes);
+// At a solve's first Jacobian: 1e-4 where a particle is plastic at the
+// start (on any rank), 1e-8 where none is. A plastic step is nonlinear, and
+// its first direction to 1e-8 only cost Krylov iterations and, through
+// them, factorizations: a quarter of the 3D time loop at 128,000 particles.
+// A linear step keeps its one Newton iteration (docs/solver.md#inexact-newton).
+void choose_first_tolerance(SNES snes, std::size_t plastic_particles_here);
 // Newton with a line search of `line_search_type`, at most max_it
 // iterations, no PETSc tolerance (talus's own convergence test decides).
 void set_newton(SNES snes, PetscInt max_it, SNESLineSearchType line_search_type);

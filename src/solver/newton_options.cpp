@@ -260,6 +260,23 @@ void set_inexact_newton(SNES snes) {
   TALUS_PETSC(SNESKSPSetParametersEW(snes, 2, 1e-8, 1e-2, PETSC_DEFAULT, PETSC_DEFAULT, PETSC_DEFAULT, PETSC_DEFAULT));
 }
 
+bool adaptive_first_tolerance(SNES snes) {
+  PetscBool ew = PETSC_FALSE, given = PETSC_FALSE;
+  TALUS_PETSC(SNESKSPGetUseEW(snes, &ew));
+  TALUS_PETSC(PetscOptionsHasName(nullptr, "talus_", "-snes_ksp_ew_rtol0", &given));
+  return ew && !given;
+}
+
+void choose_first_tolerance(SNES snes, std::size_t plastic_particles_here) {
+  PetscInt iteration = 0;
+  TALUS_PETSC(SNESGetIterationNumber(snes, &iteration));
+  if (iteration != 0) return;
+  long here = static_cast<long>(plastic_particles_here), plastic = 0;
+  MPI_Allreduce(&here, &plastic, 1, MPI_LONG, MPI_SUM, PetscObjectComm(reinterpret_cast<PetscObject>(snes)));
+  TALUS_PETSC(SNESKSPSetParametersEW(snes, PETSC_DEFAULT, plastic > 0 ? 1e-4 : 1e-8, PETSC_DEFAULT, PETSC_DEFAULT,
+                                     PETSC_DEFAULT, PETSC_DEFAULT, PETSC_DEFAULT));
+}
+
 void default_block_option(const char* name, const std::string& value) {
   PetscBool given = PETSC_FALSE, other_pc = PETSC_FALSE;
   TALUS_PETSC(PetscOptionsHasName(nullptr, "talus_", ("-" + std::string(name)).c_str(), &given));

@@ -122,6 +122,8 @@ class MomentumSystem {
   // The primal-dual tangent (primal_dual_tangent.hpp), on or off; a new
   // Newton solve starts it from the consistent tangent.
   void set_primal_dual(bool on) { primal_dual_ = on; }
+  // Particles whose last evaluation returned to the yield surface (this rank).
+  std::size_t plastic_particles() const { return plastic_particles_; }
   void reset_carried_stresses() { carried_.reset(); }
   // The last evaluation was at Newton's accepted iterate (the Jacobian's).
   void commit_carried_stresses() {
@@ -219,6 +221,7 @@ class MomentumSystem {
   double h_, theta_;
   bool with_tangents_ = true;
   bool primal_dual_ = false;
+  std::size_t plastic_particles_ = 0;
   CarriedStresses<dim> carried_;
   StrainIncrement strain_increment_ = StrainIncrement::linear;
 

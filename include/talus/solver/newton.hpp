@@ -202,6 +202,9 @@ class NewtonSolver {
     // function vector) as the system's latest evaluation: SNES's first
     // residual, at `start` itself, is that one (one residual less per step).
     Vec start = nullptr, start_residual = nullptr;
+    // Inexact Newton's first tolerance is chosen at the first Jacobian of a
+    // solve: loose where a particle is plastic, tight where the step is linear.
+    bool adaptive_first_tolerance = false;
   };
 
  private:
