@@ -219,10 +219,12 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
     const Material& material = *materials_[material_[p]];
     const double* state_old = state_old_.data() + max_state_size * p;
     material.update(rotated, strain, state_old, state_end_.data() + max_state_size * p, update);
+    const bool plastic = !update.plastic_strain_increment.isZero(0.0);
+    plastic_particles_ += plastic;
     if (primal_dual) {
       // The primal-dual tangent at the stress carried from the last iterate
       // (primal_dual_tangent.hpp); an elastic particle needs none.
-      if (update.plastic_strain_increment.isZero(0.0)) {
+      if (!plastic) {
         carried_.record_elastic(p);
       } else {
         const Voigt trial = rotated + material.elastic_stiffness() * strain;
@@ -242,7 +244,6 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
     }
     stress_end_[p] = update.stress;
     plastic_increment_[p] = update.plastic_strain_increment;
-    if (!update.plastic_strain_increment.isZero(0.0)) ++plastic_particles_;
 
     // A = d sigma^{n+1}_ij / d L_kl = h D[ij, kl] + S[ij, :] d sigma*/d L_kl, with
     // d sigma*_ij / d L_kl = h/2 (d_ik s_lj - d_il s_kj - s_ik d_lj + s_il d_kj).

@@ -1,7 +1,5 @@
 #include "talus/solver/primal_dual_tangent.hpp"
 
-#include <algorithm>
-
 namespace talus {
 
 template <int dim>
