@@ -149,14 +149,15 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
     // written (with b outermost every b touched all n block rows).
     // Row-major, so that the dim entries K_ab(i, :) are one packed
     // multiply-add per j (the loop below is a fifth of a 2D Newton iteration).
-    using Gradient = Eigen::Matrix<double, nL, dim, Eigen::RowMajor>;
+    // G_b has A's nS rows, one per stress component (sigma_ij = sigma_ji).
+    using Gradient = Eigen::Matrix<double, nS, dim, Eigen::RowMajor>;
     std::array<Gradient, max_nodes> G;
     std::array<bool, max_nodes> active_b;
     const double volume_scale = scale * reference_volume_[p];
     for (int b = 0; b < count; ++b) {
       active_b[b] = active_.compact_index(local[b]) >= 0;
       if (!active_b[b]) continue;
-      Eigen::Matrix<double, nL, dim> Gc;
+      Eigen::Matrix<double, nS, dim> Gc;
       for (int k = 0; k < dim; ++k) {
         Gc.col(k).setZero();
         for (int l = 0; l < dim; ++l) Gc.col(k) += A.col(k * dim + l) * gradient[dim * b + l];
@@ -170,8 +171,8 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
         if (!active_b[b]) continue;
         double* row = block_row[a] + (lin[b] - lin[a] + centre) * dim;
         for (int i = 0; i < dim; ++i) {
-          Eigen::Matrix<double, 1, dim> value = ga[0] * G[b].row(i * dim);
-          for (int j = 1; j < dim; ++j) value += ga[j] * G[b].row(i * dim + j);
+          Eigen::Matrix<double, 1, dim> value = ga[0] * G[b].row(stress_row(i, 0));
+          for (int j = 1; j < dim; ++j) value += ga[j] * G[b].row(stress_row(i, j));
           Eigen::Map<Eigen::Matrix<double, 1, dim>>(row + i * row_length) += value;
         }
       }

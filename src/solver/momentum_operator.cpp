@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "talus/solver/momentum_system.hpp"
+#include "talus/solver/tensor_stencil.hpp"
 
 namespace talus {
 
@@ -37,12 +38,30 @@ void MomentumSystem<dim>::apply_jacobian(Vec x, Vec y) {
   const auto t0 = std::chrono::steady_clock::now();
   active_.to_grid(x, operator_x_);
   for (const int e : active_.constrained_entries()) operator_x_[e] = 0.0;
+  // One node of zeros past the end: the tensor-product rows are read and
+  // written padded (tensor_stencil.cpp).
+  operator_x_.resize(operator_x_.size() + dim, 0.0);
   operator_y_.assign(operator_x_.size(), 0.0);
   const double scale = h_ * theta_ * theta_;
   const double* xg = operator_x_.data();
   double* yg = operator_y_.data();
+  // The particles with tensor-product stencils (most of them, tensor_stencil.hpp),
+  // then the others node by node.
+  static_assert(sizeof(StressTangent) == sizeof(double) * nS * nL, "tangents stored contiguously");
+  TensorStencilProduct<dim> tensor;
+  tensor.x = xg;
+  tensor.y = yg;
+  for (int ax = 0; ax < dim; ++ax) tensor.stride[ax] = tensor_stride_[ax];
+  tensor.particles = stencils_.size();
+  tensor.base = tensor_base_.data();
+  tensor.stiff = stiff_.data();
+  tensor.basis = tensor_basis_.data();
+  tensor.tangent = tangent_.empty() ? nullptr : tangent_[0].data();
+  tensor.volume = reference_volume_.data();
+  tensor.scale = scale;
+  add_tensor_stencil_products(tensor);
   for (std::size_t p = 0; p < stencils_.size(); ++p) {
-    if (!stiff_[p]) continue;
+    if (!stiff_[p] || tensor_base_[p] >= 0) continue;
     const auto [n, local, gradient] = nodes_of(p);
     // One pass over the nodes gathers L(k, l) = sum_b x_b,k dN_b/dx_l
     // (row-major, k dim + l: A's columns), with dim^2 independent sums; a
@@ -55,8 +74,11 @@ void MomentumSystem<dim>::apply_jacobian(Vec x, Vec y) {
       for (int k = 0; k < dim; ++k)
         for (int l = 0; l < dim; ++l) L[k * dim + l] += xb[k] * gb[l];
     }
-    const Eigen::Matrix<double, nL, 1> t =
+    const Eigen::Matrix<double, nS, 1> ts =
         scale * reference_volume_[p] * tangent_[p].lazyProduct(Eigen::Map<const Eigen::Matrix<double, nL, 1>>(L.data()));
+    std::array<double, nL> t;
+    for (int i = 0; i < dim; ++i)
+      for (int j = 0; j < dim; ++j) t[i * dim + j] = ts[stress_row(i, j)];
     for (int a = 0; a < n; ++a) {
       double* ya = yg + static_cast<std::size_t>(dim) * local[a];
       const double* ga = gradient + dim * a;

@@ -150,6 +150,34 @@ void MomentumSystem<dim>::pack_stencils() {
     }
     packed_offset_.push_back(static_cast<int>(packed_local_.size()));
   }
+  // The tensor-product stencils: nodes x fastest at unit steps of the
+  // ghosted arrays (evaluate_stencil's order), checked, not assumed.
+  constexpr int n1 = 3, n_tensor = dim == 2 ? 9 : 27;
+  tensor_stride_[0] = 1;
+  for (int ax = 1; ax < dim; ++ax) tensor_stride_[ax] = tensor_stride_[ax - 1] * grid_.ghost_size()[ax - 1];
+  tensor_base_.assign(stencils_.size(), -1);
+  tensor_basis_.resize(stencils_.size() * 2 * dim * n1);
+  for (std::size_t p = 0; p < stencils_.size(); ++p) {
+    const Stencil<dim>& st = stencils_[p];
+    bool tensor = st.count == n_tensor;
+    for (int ax = 0; ax < dim && tensor; ++ax) tensor = st.basis[ax].count == n1;
+    for (int n = 0; n < st.count && tensor; ++n) {
+      int offset = 0;
+      for (int ax = 0, rest = n; ax < dim; ++ax, rest /= n1) {
+        offset += (rest % n1) * tensor_stride_[ax];
+        tensor = tensor && st.node[n][ax] == st.basis[ax].first + rest % n1;
+      }
+      tensor = tensor && st.local[n] == st.local[0] + offset;
+    }
+    if (!tensor) continue;
+    tensor_base_[p] = st.local[0];
+    double* basis = tensor_basis_.data() + p * 2 * dim * n1;
+    for (int ax = 0; ax < dim; ++ax)
+      for (int a = 0; a < n1; ++a) {
+        basis[2 * ax * n1 + a] = st.basis[ax].value[a];
+        basis[(2 * ax + 1) * n1 + a] = st.basis[ax].slope[a];
+      }
+  }
 }
 
 template <int dim>
@@ -259,7 +287,7 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
                                                 : Voigt(h_ * update.tangent.col(voigt_index(k, l)));
         if (k == l) {
           for (int i = 0; i < dim; ++i)
-            for (int j = 0; j < dim; ++j) A(i * dim + j, k * dim + k) = strain_column[voigt_index(i, j)];
+            for (int j = i; j < dim; ++j) A(stress_row(i, j), k * dim + k) = strain_column[voigt_index(i, j)];
           continue;
         }
         const Voigt strain_column_lk =
@@ -271,10 +299,10 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
                                                                              pair == 1 ? 0.5 : 0.0,
                                                                              pair == 2 ? 0.5 : 0.0));
         for (int i = 0; i < dim; ++i)
-          for (int j = 0; j < dim; ++j) {
+          for (int j = i; j < dim; ++j) {
             const int v = voigt_index(i, j);
-            A(i * dim + j, k * dim + l) = strain_column[v] + spin_column[v];
-            A(i * dim + j, l * dim + k) = strain_column_lk[v] - spin_column[v];
+            A(stress_row(i, j), k * dim + l) = strain_column[v] + spin_column[v];
+            A(stress_row(i, j), l * dim + k) = strain_column_lk[v] - spin_column[v];
           }
       }
 

@@ -182,6 +182,9 @@ struct Stencil {
   std::array<int, max_nodes> local;                  // index in the rank's ghosted node arrays
   std::array<double, max_nodes> weight;
   std::array<Vector<dim>, max_nodes> gradient;
+  // The 1D bases whose tensor product the nodes are (x fastest): the
+  // Jacobian's product contracts them axis by axis (momentum_operator.cpp).
+  std::array<Basis1D, dim> basis;
 };
 
 // x_rel: position relative to the grid's lower corner (physical units);
@@ -213,6 +216,7 @@ inline void evaluate_stencil(ShapeKind kind, const Vector<dim>& x_rel, const std
         }
   }
   st.count = n;
+  st.basis = b;
 }
 
 }  // namespace talus

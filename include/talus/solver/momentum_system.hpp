@@ -63,7 +63,13 @@ template <int dim>
 class MomentumSystem {
  public:
   static constexpr int nL = dim * dim;
-  using StressTangent = Eigen::Matrix<double, nL, nL>;  // (i*dim + j, k*dim + l): d sigma_ij / d L_kl
+  // The in-plane stress components: xx, yy, xy in 2D; the Voigt six in 3D.
+  static constexpr int nS = dim == 2 ? 3 : 6;
+  // Row of sigma_ij (= sigma_ji) in a StressTangent.
+  static constexpr int stress_row(int i, int j) { return dim == 2 ? (i == j ? i : 2) : voigt_index(i, j); }
+  // (stress_row(i, j), k*dim + l): d sigma_ij / d L_kl. The stress is
+  // symmetric, so its rows ij and ji are one: nS rows, not nL.
+  using StressTangent = Eigen::Matrix<double, nS, nL>;
 
   MomentumSystem(const Grid<dim>& grid, const Particles<dim>& particles, const std::vector<Stencil<dim>>& stencils,
                  const GridFields<dim>& fields, const ActiveSet<dim>& active,
@@ -93,6 +99,11 @@ class MomentumSystem {
   // at v, then apply_jacobian(x, y) sets y = J(v) x from them, equal to
   // jacobian(v, J) followed by MatMult(J, x, y) to round-off.
   void prepare_operator(Vec v);
+  // Particles whose Jacobian product takes the tensor-product path
+  // (tensor_stencil.hpp), once the stencils are packed (the first Jacobian).
+  std::size_t tensor_stencil_particles() const {
+    return static_cast<std::size_t>(std::count_if(tensor_base_.begin(), tensor_base_.end(), [](int b) { return b >= 0; }));
+  }
   int stencil_nodes() const;  // grid points per particle: 9 or 27 (quadratic B-splines), 4 or 8 (linear hats)
   void apply_jacobian(Vec x, Vec y);
   // Preallocated for this step's couplings, block size dim, of `type` (MATAIJ
@@ -243,6 +254,14 @@ class MomentumSystem {
   // packed_offset_[p] .. packed_offset_[p + 1] - 1.
   std::vector<int> packed_offset_, packed_local_, packed_lin_;
   std::vector<double> packed_gradient_;
+  // Stencils that are full tensor products of three quadratic B-splines per
+  // axis (point quadrature), for the Jacobian's product (momentum_operator.cpp),
+  // packed with the others: the first node's local index (-1 for any other
+  // stencil), each axis's 3 values and 3 slopes (6 dim per particle), and the
+  // local index's step along each axis.
+  std::vector<int> tensor_base_;
+  std::vector<double> tensor_basis_;
+  std::array<int, dim> tensor_stride_{};
   void pack_stencils();
   // Particle p's nodes: their count, local indices and gradients (dim per
   // node), from the packed copy once it exists (implicit steps), else from
