@@ -49,13 +49,10 @@ void MomentumSystem<dim>::apply_jacobian(Vec x, Vec y) {
   // then the others node by node.
   static_assert(sizeof(StressTangent) == sizeof(double) * nS * nL, "tangents stored contiguously");
   TensorStencilProduct<dim> tensor;
+  tensor.stencils = tensor_stencils();
   tensor.x = xg;
   tensor.y = yg;
-  for (int ax = 0; ax < dim; ++ax) tensor.stride[ax] = tensor_stride_[ax];
-  tensor.particles = stencils_.size();
-  tensor.base = tensor_base_.data();
   tensor.stiff = stiff_.data();
-  tensor.basis = tensor_basis_.data();
   tensor.tangent = tangent_.empty() ? nullptr : tangent_[0].data();
   tensor.volume = reference_volume_.data();
   tensor.scale = scale;

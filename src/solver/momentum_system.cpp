@@ -201,6 +201,19 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
   force_.assign(velocity_.size(), 0.0);
 
   const std::size_t np = stencils_.size();
+  // Tensor-product stencils (tensor_stencil.hpp, packed with the stencils):
+  // every L_p from v_theta on the grid first, and the internal forces from
+  // V_p sigma_theta after the loop; the other particles node by node in it.
+  const bool tensor = !tensor_base_.empty();
+  if (tensor) {
+    velocity_theta_.resize(velocity_.size() + dim);  // one node of padding
+    for (std::size_t e = 0; e < velocity_.size(); ++e)
+      velocity_theta_[e] = theta_ * velocity_[e] + (1.0 - theta_) * velocity_old_[e];
+    std::fill(velocity_theta_.end() - dim, velocity_theta_.end(), 0.0);
+    particle_gradient_.resize(np * nL);
+    gather_tensor_gradients(tensor_stencils(), velocity_theta_.data(), particle_gradient_.data());
+    particle_force_stress_.resize(np * nS);
+  }
   MaterialPointUpdate update;
   const bool primal_dual = primal_dual_ && with_tangents_;
   plastic_particles_ = 0;
@@ -213,11 +226,14 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
       closed_voids_[p] = 0.0;
       tangent_[p].setZero();
       stiff_[p] = 0;
+      if (tensor) std::fill_n(particle_force_stress_.begin() + p * nS, nS, 0.0);
       continue;
     }
+    const bool tensor_p = tensor && tensor_base_[p] >= 0;
     const auto [count, local, gradient] = nodes_of(p);
     Matrix<dim> L = Matrix<dim>::Zero();
-    for (int k = 0; k < count; ++k) {
+    if (tensor_p) L = Eigen::Map<const Eigen::Matrix<double, dim, dim, Eigen::RowMajor>>(particle_gradient_.data() + p * nL);
+    for (int k = 0; k < count && !tensor_p; ++k) {
       const std::size_t o = static_cast<std::size_t>(dim) * local[k];
       const Vector<dim> vt = theta_ * Eigen::Map<const Vector<dim>>(velocity_.data() + o) +
                              (1.0 - theta_) * Eigen::Map<const Vector<dim>>(velocity_old_.data() + o);
@@ -310,10 +326,21 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
     const Voigt st_theta = (1.0 - theta_) * stress_old_[p] + theta_ * update.stress;
     const Eigen::Matrix3d sigma = voigt_to_tensor(st_theta);
     const Matrix<dim> s_dim = sigma.template topLeftCorner<dim, dim>();
+    if (tensor_p) {
+      for (int i = 0; i < dim; ++i)
+        for (int j = i; j < dim; ++j) particle_force_stress_[p * nS + stress_row(i, j)] = reference_volume_[p] * s_dim(i, j);
+      continue;
+    }
     for (int k = 0; k < count; ++k) {
       Eigen::Map<Vector<dim>> f(force_.data() + static_cast<std::size_t>(dim) * local[k]);
       f += reference_volume_[p] * (s_dim * Eigen::Map<const Vector<dim>>(gradient + dim * k));
     }
+  }
+  if (tensor) {
+    const std::size_t size = force_.size();
+    force_.resize(size + dim, 0.0);  // the rows' padding
+    scatter_tensor_stresses(tensor_stencils(), particle_force_stress_.data(), force_.data());
+    force_.resize(size);
   }
   if (!evaluated_at_) TALUS_PETSC(VecDuplicate(v, &evaluated_at_));
   TALUS_PETSC(VecCopy(v, evaluated_at_));

@@ -54,6 +54,7 @@
 #include "talus/solver/active_set.hpp"
 #include "talus/solver/primal_dual_tangent.hpp"
 #include "talus/solver/strain_increment.hpp"
+#include "talus/solver/tensor_stencil.hpp"
 #include "talus/solver/energy_balance.hpp"
 #include "talus/solver/ghost_penalty.hpp"
 
@@ -245,6 +246,10 @@ class MomentumSystem {
 
   // Results of the last evaluation.
   std::vector<double> velocity_, velocity_old_, force_;
+  // For the tensor-product stencils (evaluate_particles): v_theta on the
+  // grid (padded by a node), each particle's L (dim^2, row-major) and
+  // V_p sigma_theta (nS).
+  std::vector<double> velocity_theta_, particle_gradient_, particle_force_stress_;
   std::vector<Voigt> stress_end_, plastic_increment_;
   std::vector<double> state_end_, separation_end_;
   std::vector<double> closed_voids_;  // volumetric strain of the voids closed this step (<= 0)
@@ -262,6 +267,14 @@ class MomentumSystem {
   std::vector<int> tensor_base_;
   std::vector<double> tensor_basis_;
   std::array<int, dim> tensor_stride_{};
+  TensorStencils<dim> tensor_stencils() const {
+    TensorStencils<dim> s;
+    for (int ax = 0; ax < dim; ++ax) s.stride[ax] = tensor_stride_[ax];
+    s.particles = tensor_base_.size();
+    s.base = tensor_base_.data();
+    s.basis = tensor_basis_.data();
+    return s;
+  }
   void pack_stencils();
   // Particle p's nodes: their count, local indices and gradients (dim per
   // node), from the packed copy once it exists (implicit steps), else from
