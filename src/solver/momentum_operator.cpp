@@ -45,20 +45,23 @@ void MomentumSystem<dim>::apply_jacobian(Vec x, Vec y) {
   const double scale = h_ * theta_ * theta_;
   const double* xg = operator_x_.data();
   double* yg = operator_y_.data();
-  // The particles with tensor-product stencils (most of them, tensor_stencil.hpp),
-  // then the others node by node.
+  // In 3D the particles with tensor-product stencils (most of them,
+  // tensor_stencil.hpp), then the others node by node.
   static_assert(sizeof(StressTangent) == sizeof(double) * nS * nL, "tangents stored contiguously");
-  TensorStencilProduct<dim> tensor;
-  tensor.stencils = tensor_stencils();
-  tensor.x = xg;
-  tensor.y = yg;
-  tensor.stiff = stiff_.data();
-  tensor.tangent = tangent_.empty() ? nullptr : tangent_[0].data();
-  tensor.volume = reference_volume_.data();
-  tensor.scale = scale;
-  add_tensor_stencil_products(tensor);
+  const bool tensor = !tensor_base_.empty();
+  if constexpr (dim == 3) {
+    TensorStencilProduct<dim> product;
+    product.stencils = tensor_stencils();
+    product.x = xg;
+    product.y = yg;
+    product.stiff = stiff_.data();
+    product.tangent = tangent_.empty() ? nullptr : tangent_[0].data();
+    product.volume = reference_volume_.data();
+    product.scale = scale;
+    if (tensor) add_tensor_stencil_products(product);
+  }
   for (std::size_t p = 0; p < stencils_.size(); ++p) {
-    if (!stiff_[p] || tensor_base_[p] >= 0) continue;
+    if (!stiff_[p] || (tensor && tensor_base_[p] >= 0)) continue;
     const auto [n, local, gradient] = nodes_of(p);
     // One pass over the nodes gathers L(k, l) = sum_b x_b,k dN_b/dx_l
     // (row-major, k dim + l: A's columns), with dim^2 independent sums; a

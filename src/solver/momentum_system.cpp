@@ -150,8 +150,15 @@ void MomentumSystem<dim>::pack_stencils() {
     }
     packed_offset_.push_back(static_cast<int>(packed_local_.size()));
   }
-  // The tensor-product stencils: nodes x fastest at unit steps of the
-  // ghosted arrays (evaluate_stencil's order), checked, not assumed.
+  // The tensor-product stencils, in 3D (tensor_stencil.hpp): nodes x
+  // fastest at unit steps of the ghosted arrays (evaluate_stencil's order),
+  // checked, not assumed.
+  tensor_base_.clear();
+  if constexpr (dim == 3) pack_tensor_stencils();
+}
+
+template <int dim>
+void MomentumSystem<dim>::pack_tensor_stencils() {
   constexpr int n1 = 3, n_tensor = dim == 2 ? 9 : 27;
   tensor_stride_[0] = 1;
   for (int ax = 1; ax < dim; ++ax) tensor_stride_[ax] = tensor_stride_[ax - 1] * grid_.ghost_size()[ax - 1];
@@ -211,7 +218,7 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
       velocity_theta_[e] = theta_ * velocity_[e] + (1.0 - theta_) * velocity_old_[e];
     std::fill(velocity_theta_.end() - dim, velocity_theta_.end(), 0.0);
     particle_gradient_.resize(np * nL);
-    gather_tensor_gradients(tensor_stencils(), velocity_theta_.data(), particle_gradient_.data());
+    if constexpr (dim == 3) gather_tensor_gradients(tensor_stencils(), velocity_theta_.data(), particle_gradient_.data());
     particle_force_stress_.resize(np * nS);
   }
   MaterialPointUpdate update;
@@ -339,7 +346,7 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
   if (tensor) {
     const std::size_t size = force_.size();
     force_.resize(size + dim, 0.0);  // the rows' padding
-    scatter_tensor_stresses(tensor_stencils(), particle_force_stress_.data(), force_.data());
+    if constexpr (dim == 3) scatter_tensor_stresses(tensor_stencils(), particle_force_stress_.data(), force_.data());
     force_.resize(size);
   }
   if (!evaluated_at_) TALUS_PETSC(VecDuplicate(v, &evaluated_at_));

@@ -1,6 +1,7 @@
 // Particle-grid sums over tensor-product stencils (tensor_stencil.hpp).
 //
-// Per particle the same multiply-adds as node by node (about 3^dim dim^2
+// In 3D (tensor_stencil.hpp says why not in 2D). Per particle the same
+// multiply-adds as node by node (about 3^dim dim^2
 // each for a gather and a scatter), but on rows of 3 dim contiguous values
 // and with the gradients formed from 6 dim numbers instead of read (dim 3^dim).
 // GCC's own vectorization of the plain loops shuffled lanes and spilled,
@@ -273,11 +274,8 @@ TALUS_AVX2 void products_avx2(const TensorStencilProduct<dim>& P) {
 
 // The entry points of the AVX2 code (not inlined into code for the baseline).
 #define TALUS_AVX2_ENTRY __attribute__((target("avx2,fma"), noinline))
-TALUS_AVX2_ENTRY void gather_avx2_2d(const TensorStencils<2>& S, const double* x, double* L) { gather_all_avx2(S, x, L); }
 TALUS_AVX2_ENTRY void gather_avx2_3d(const TensorStencils<3>& S, const double* x, double* L) { gather_all_avx2(S, x, L); }
-TALUS_AVX2_ENTRY void scatter_avx2_2d(const TensorStencils<2>& S, const double* T, double* y) { scatter_all_avx2(S, T, y); }
 TALUS_AVX2_ENTRY void scatter_avx2_3d(const TensorStencils<3>& S, const double* T, double* y) { scatter_all_avx2(S, T, y); }
-TALUS_AVX2_ENTRY void products_avx2_2d(const TensorStencilProduct<2>& P) { products_avx2(P); }
 TALUS_AVX2_ENTRY void products_avx2_3d(const TensorStencilProduct<3>& P) { products_avx2(P); }
 
 bool cpu_has_avx2_fma() {
@@ -301,29 +299,14 @@ bool tensor_kernel_vectorized() { return cpu_has_avx2_fma(); }
 #define TALUS_DISPATCH(vector_call) (void)kernel
 #endif
 
-void gather_tensor_gradients(const TensorStencils<2>& S, const double* x, double* L, TensorKernel kernel) {
-  TALUS_DISPATCH(gather_avx2_2d(S, x, L));
-  gather_all_plain(S, x, L);
-}
-
 void gather_tensor_gradients(const TensorStencils<3>& S, const double* x, double* L, TensorKernel kernel) {
   TALUS_DISPATCH(gather_avx2_3d(S, x, L));
   gather_all_plain(S, x, L);
 }
 
-void scatter_tensor_stresses(const TensorStencils<2>& S, const double* T, double* y, TensorKernel kernel) {
-  TALUS_DISPATCH(scatter_avx2_2d(S, T, y));
-  scatter_all_plain(S, T, y);
-}
-
 void scatter_tensor_stresses(const TensorStencils<3>& S, const double* T, double* y, TensorKernel kernel) {
   TALUS_DISPATCH(scatter_avx2_3d(S, T, y));
   scatter_all_plain(S, T, y);
-}
-
-void add_tensor_stencil_products(const TensorStencilProduct<2>& product, TensorKernel kernel) {
-  TALUS_DISPATCH(products_avx2_2d(product));
-  products_plain(product);
 }
 
 void add_tensor_stencil_products(const TensorStencilProduct<3>& product, TensorKernel kernel) {

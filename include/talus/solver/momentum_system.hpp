@@ -259,11 +259,11 @@ class MomentumSystem {
   // packed_offset_[p] .. packed_offset_[p + 1] - 1.
   std::vector<int> packed_offset_, packed_local_, packed_lin_;
   std::vector<double> packed_gradient_;
-  // Stencils that are full tensor products of three quadratic B-splines per
-  // axis (point quadrature), for the Jacobian's product (momentum_operator.cpp),
-  // packed with the others: the first node's local index (-1 for any other
-  // stencil), each axis's 3 values and 3 slopes (6 dim per particle), and the
-  // local index's step along each axis.
+  // 3D stencils that are full tensor products of three quadratic B-splines
+  // per axis (point quadrature), for the residual and the Jacobian's product
+  // (tensor_stencil.hpp), packed with the others: the first node's local
+  // index (-1 for any other stencil; none at all in 2D), each axis's 3 values
+  // and 3 slopes (6 dim per particle), and the local index's step along each axis.
   std::vector<int> tensor_base_;
   std::vector<double> tensor_basis_;
   std::array<int, dim> tensor_stride_{};
@@ -276,6 +276,7 @@ class MomentumSystem {
     return s;
   }
   void pack_stencils();
+  void pack_tensor_stencils();  // 3D
   // Particle p's nodes: their count, local indices and gradients (dim per
   // node), from the packed copy once it exists (implicit steps), else from
   // the stencil itself (the explicit step reads each stencil once: a copy
