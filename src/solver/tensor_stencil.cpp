@@ -235,6 +235,9 @@ TALUS_AVX2 void tangent_product_avx2(const double* A, const double* L, double fa
   }
 }
 
+// The drivers below repeat the plain ones line for line: GCC does not
+// inline a target-specific always_inline function into one compiled for
+// the baseline, so each target needs its own loop over the particles.
 template <int dim>
 TALUS_AVX2 void gather_all_avx2(const TensorStencils<dim>& S, const double* x, double* L) {
   Rows<dim> rows;
