@@ -171,8 +171,8 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
         if (!active_b[b]) continue;
         double* row = block_row[a] + (lin[b] - lin[a] + centre) * dim;
         for (int i = 0; i < dim; ++i) {
-          Eigen::Matrix<double, 1, dim> value = ga[0] * G[b].row(stress_row(i, 0));
-          for (int j = 1; j < dim; ++j) value += ga[j] * G[b].row(stress_row(i, j));
+          Eigen::Matrix<double, 1, dim> value = ga[0] * G[b].row(stress_row<dim>(i, 0));
+          for (int j = 1; j < dim; ++j) value += ga[j] * G[b].row(stress_row<dim>(i, j));
           Eigen::Map<Eigen::Matrix<double, 1, dim>>(row + i * row_length) += value;
         }
       }

@@ -78,7 +78,7 @@ void MomentumSystem<dim>::apply_jacobian(Vec x, Vec y) {
         scale * reference_volume_[p] * tangent_[p].lazyProduct(Eigen::Map<const Eigen::Matrix<double, nL, 1>>(L.data()));
     std::array<double, nL> t;
     for (int i = 0; i < dim; ++i)
-      for (int j = 0; j < dim; ++j) t[i * dim + j] = ts[stress_row(i, j)];
+      for (int j = 0; j < dim; ++j) t[i * dim + j] = ts[stress_row<dim>(i, j)];
     for (int a = 0; a < n; ++a) {
       double* ya = yg + static_cast<std::size_t>(dim) * local[a];
       const double* ga = gradient + dim * a;

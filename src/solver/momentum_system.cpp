@@ -310,7 +310,7 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
                                                 : Voigt(h_ * update.tangent.col(voigt_index(k, l)));
         if (k == l) {
           for (int i = 0; i < dim; ++i)
-            for (int j = i; j < dim; ++j) A(stress_row(i, j), k * dim + k) = strain_column[voigt_index(i, j)];
+            for (int j = i; j < dim; ++j) A(stress_row<dim>(i, j), k * dim + k) = strain_column[voigt_index(i, j)];
           continue;
         }
         const Voigt strain_column_lk =
@@ -324,8 +324,8 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
         for (int i = 0; i < dim; ++i)
           for (int j = i; j < dim; ++j) {
             const int v = voigt_index(i, j);
-            A(stress_row(i, j), k * dim + l) = strain_column[v] + spin_column[v];
-            A(stress_row(i, j), l * dim + k) = strain_column_lk[v] - spin_column[v];
+            A(stress_row<dim>(i, j), k * dim + l) = strain_column[v] + spin_column[v];
+            A(stress_row<dim>(i, j), l * dim + k) = strain_column_lk[v] - spin_column[v];
           }
       }
 
@@ -335,7 +335,7 @@ void MomentumSystem<dim>::evaluate_particles(Vec v) {
     const Matrix<dim> s_dim = sigma.template topLeftCorner<dim, dim>();
     if (tensor_p) {
       for (int i = 0; i < dim; ++i)
-        for (int j = i; j < dim; ++j) particle_force_stress_[p * nS + stress_row(i, j)] = reference_volume_[p] * s_dim(i, j);
+        for (int j = i; j < dim; ++j) particle_force_stress_[p * nS + stress_row<dim>(i, j)] = reference_volume_[p] * s_dim(i, j);
       continue;
     }
     for (int k = 0; k < count; ++k) {

@@ -12,6 +12,8 @@
 // any x86-64 CPU; elsewhere the plain loops run.
 #include "talus/solver/tensor_stencil.hpp"
 
+#include "talus/core/types.hpp"  // stress_row
+
 #if defined(__x86_64__) && defined(__GNUC__)
 #include <immintrin.h>
 #define TALUS_HAVE_AVX2_KERNEL 1
@@ -22,12 +24,6 @@ namespace talus {
 namespace {
 
 constexpr int n1 = 3;  // functions per axis
-
-// Row of sigma_ij in a stress or tangent: xx, yy, xy in 2D; Voigt (xx, yy, zz, yz, xz, xy) in 3D.
-template <int dim>
-constexpr int stress_row(int i, int j) {
-  return dim == 2 ? (i == j ? i : 2) : (i == j ? i : 6 - i - j);
-}
 
 // One particle's stencil as rows along x: w[r][l], the factor of gradient
 // component l from the axes other than x for row r (y index r % 3, z index

@@ -20,6 +20,13 @@ constexpr int voigt_index(int i, int j) {
   return i == j ? i : 6 - i - j;  // (1,2)->3, (0,2)->4, (0,1)->5
 }
 
+// Row of sigma_ij (= sigma_ji) among a dim-dimensional stress's components:
+// xx, yy, xy in 2D (the in-plane ones); the Voigt six in 3D.
+template <int dim>
+constexpr int stress_row(int i, int j) {
+  return dim == 2 ? (i == j ? i : 2) : voigt_index(i, j);
+}
+
 inline Eigen::Matrix3d voigt_to_tensor(const Voigt& s) {
   Eigen::Matrix3d t;
   t << s[0], s[5], s[4], s[5], s[1], s[3], s[4], s[3], s[2];

@@ -66,9 +66,7 @@ class MomentumSystem {
   static constexpr int nL = dim * dim;
   // The in-plane stress components: xx, yy, xy in 2D; the Voigt six in 3D.
   static constexpr int nS = dim == 2 ? 3 : 6;
-  // Row of sigma_ij (= sigma_ji) in a StressTangent.
-  static constexpr int stress_row(int i, int j) { return dim == 2 ? (i == j ? i : 2) : voigt_index(i, j); }
-  // (stress_row(i, j), k*dim + l): d sigma_ij / d L_kl. The stress is
+  // (stress_row<dim>(i, j), k*dim + l): d sigma_ij / d L_kl. The stress is
   // symmetric, so its rows ij and ji are one: nS rows, not nL.
   using StressTangent = Eigen::Matrix<double, nS, nL>;
 
