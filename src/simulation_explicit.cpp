@@ -59,7 +59,7 @@ StepReport Simulation<dim>::advance_explicit(double h) {
   // 1. Stencils at x^n and 2. P2G: m_i and v_i^n (per velocity field with
   // bodies in contact).
   const ContactConfig& contact = config_.contact;
-  std::vector<Stencil<dim>> stencils;
+  std::vector<Stencil<dim>>& stencils = stencils_;
   compute_stencils(*grid_, *particles_, stencils, contact.field_count > 1 ? contact.body_field : std::vector<int>());
   GridFields<dim> fields;
   particles_to_grid(*grid_, *particles_, stencils, config_.transfer.scheme, fields, contact.field_count);

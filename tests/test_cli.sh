@@ -956,11 +956,12 @@ PY
 # On a terminal (a pseudo-terminal from script(1)): the line is rewritten in
 # place with carriage returns and ended before the closing lines; messages
 # (a cut-back forced by -talus_snes_max_it 1 at the first step, whose Newton
-# needs 2 iterations; the checkpoint) take lines of their own, the progress
-# line cleared first. The cut-back halves 0.0075 s: 17 steps.
+# needs 2 iterations when held to U <= 1e-8 by -talus_balance_time_fraction 0;
+# the checkpoint) take lines of their own, the progress line cleared first.
+# The cut-back halves 0.0075 s: 17 steps.
 if command -v script > /dev/null; then
   # (stty: wide enough that the line is not cut to the terminal's width)
-  script -qec "stty cols 200; $talus run land.yaml --overwrite -talus_snes_max_it 1" /dev/null > tty.log 2>&1 ||
+  script -qec "stty cols 200; $talus run land.yaml --overwrite -talus_snes_max_it 1 -talus_balance_time_fraction 0" /dev/null > tty.log 2>&1 ||
     { echo "FAIL: tty run"; cat tty.log; exit 1; }
   /usr/bin/python3 - tty.log "$work/land" <<'PY'
 import re, sys

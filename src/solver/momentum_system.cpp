@@ -446,20 +446,45 @@ Vec MomentumSystem<dim>::initial_guess(bool last) const {
 }
 
 template <int dim>
+const double* MomentumSystem<dim>::reference_acceleration(int i) const {
+  // The last step's acceleration where known, else the stresses' at t^n.
+  for (const std::vector<double>* a : {&fields_.last_acceleration, &fields_.start_acceleration}) {
+    if (a->size() != velocity_old_.size()) continue;
+    bool known = true;
+    for (int c = 0; c < dim; ++c) known = known && std::isfinite((*a)[dim * i + c]);
+    if (known) return a->data() + dim * i;
+  }
+  return nullptr;
+}
+
+template <int dim>
+Vec MomentumSystem<dim>::time_error_predictor() const {
+  Vec v = active_.create_vector();
+  TALUS_PETSC(VecZeroEntries(v));  // rigid bodies' rows, which weigh zero
+  PetscScalar* x;
+  TALUS_PETSC(VecGetArray(v, &x));
+  const auto& owned = active_.owned_points();
+  for (std::size_t k = 0; k < owned.size(); ++k) {
+    const double* a = reference_acceleration(owned[k]);
+    for (int c = 0; c < dim; ++c)
+      x[dim * k + c] = velocity_old_[dim * owned[k] + c] + h_ * (a ? a[c] : gravity_[c]);
+  }
+  TALUS_PETSC(VecRestoreArray(v, &x));
+  return v;
+}
+
+template <int dim>
 Vec MomentumSystem<dim>::time_error_weights() const {
   Vec w = active_.create_vector();
   TALUS_PETSC(VecZeroEntries(w));
-  if (!has_last_acceleration()) return w;
+  if (!has_time_error_reference()) return w;
   PetscScalar* x;
   TALUS_PETSC(VecGetArray(w, &x));
   const auto& owned = active_.owned_points();
-  const std::vector<double>& last_a = fields_.last_acceleration;
   for (std::size_t k = 0; k < owned.size(); ++k) {
     const int i = owned[k];
-    if (rigid_node(i)) continue;
-    bool known = true;
-    for (int c = 0; c < dim; ++c) known = known && std::isfinite(last_a[dim * i + c]);
-    for (int c = 0; c < dim && known; ++c)
+    if (rigid_node(i) || !reference_acceleration(i)) continue;
+    for (int c = 0; c < dim; ++c)
       if (!active_.constrained(i, c)) x[dim * k + c] = fields_.mass[i];
   }
   TALUS_PETSC(VecRestoreArray(w, &x));

@@ -24,8 +24,8 @@ namespace talus {
 template <int dim>
 void begin_time_error(typename NewtonSolver<dim>::Scale& scale, const MomentumSystem<dim>& system) {
   scale.time_error = 0.0;
-  if (!(scale.time_fraction > 0.0 && system.has_last_acceleration())) return;
-  scale.predictor = system.initial_guess(true);
+  if (!(scale.time_fraction > 0.0 && system.has_time_error_reference())) return;
+  scale.predictor = system.time_error_predictor();
   scale.weights = system.time_error_weights();
   TALUS_PETSC(VecDuplicate(scale.predictor, &scale.work));
 }

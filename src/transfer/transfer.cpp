@@ -1,6 +1,21 @@
 #include "talus/transfer/transfer.hpp"
 
+#include <limits>
+
 namespace talus {
+
+namespace {
+
+// The ranks' sums on a ghosted DMDA vector: every rank's contributions added
+// into the owned points, then copied back to the ghost points.
+void sum_over_ranks(DM da, Vec local, Vec global) {
+  TALUS_PETSC(DMLocalToGlobalBegin(da, local, ADD_VALUES, global));
+  TALUS_PETSC(DMLocalToGlobalEnd(da, local, ADD_VALUES, global));
+  TALUS_PETSC(DMGlobalToLocalBegin(da, global, INSERT_VALUES, local));
+  TALUS_PETSC(DMGlobalToLocalEnd(da, global, INSERT_VALUES, local));
+}
+
+}  // namespace
 
 template <int dim>
 Vector<dim> domain_half_width(double initial_volume, const Matrix<dim>& F, double J) {
@@ -100,10 +115,7 @@ void particles_to_grid(const Grid<dim>& grid, const Particles<dim>& particles,
       }
       TALUS_PETSC(VecRestoreArray(local, &g));
     }
-    TALUS_PETSC(DMLocalToGlobalBegin(da, local, ADD_VALUES, global));
-    TALUS_PETSC(DMLocalToGlobalEnd(da, local, ADD_VALUES, global));
-    TALUS_PETSC(DMGlobalToLocalBegin(da, global, INSERT_VALUES, local));
-    TALUS_PETSC(DMGlobalToLocalEnd(da, global, INSERT_VALUES, local));
+    sum_over_ranks(da, local, global);
     {
       const PetscScalar* g;
       TALUS_PETSC(VecGetArrayRead(local, &g));
@@ -119,6 +131,52 @@ void particles_to_grid(const Grid<dim>& grid, const Particles<dim>& particles,
   }
   TALUS_PETSC(DMRestoreGlobalVector(da, &global));
   TALUS_PETSC(DMRestoreLocalVector(da, &local));
+}
+
+template <int dim>
+std::vector<double> stress_acceleration(const Grid<dim>& grid, const Particles<dim>& particles,
+                                        const std::vector<Stencil<dim>>& stencils, const GridFields<dim>& fields,
+                                        const Vector<dim>& gravity) {
+  constexpr int bs = dim + 1;  // the P2G layout (m, m v); the force in the last dim slots
+  DM da = grid.mass_momentum_dm();
+  const int n = grid.ghosted_count();
+  std::vector<double> acceleration(fields.mass.size() * dim, std::numeric_limits<double>::quiet_NaN());
+  Vec local, global;
+  TALUS_PETSC(DMGetLocalVector(da, &local));
+  TALUS_PETSC(DMGetGlobalVector(da, &global));
+  DM sw = particles.swarm();
+  FieldView<PetscReal> s(sw, field::stress), v0(sw, field::initial_volume);
+  for (int field = 0; field < fields.field_count; ++field) {
+    TALUS_PETSC(VecZeroEntries(local));
+    TALUS_PETSC(VecZeroEntries(global));
+    const int offset = field * n;
+    PetscScalar* g;
+    TALUS_PETSC(VecGetArray(local, &g));
+    for (std::size_t p = 0; p < stencils.size(); ++p) {
+      const Stencil<dim>& st = stencils[p];
+      if (st.count == 0 || (fields.field_count > 1 && st.local[0] / n != field)) continue;
+      const Matrix<dim> tau =
+          voigt_to_tensor(Eigen::Map<const Voigt>(s.data() + 6 * p)).template topLeftCorner<dim, dim>();
+      for (int k = 0; k < st.count; ++k) {
+        const Vector<dim> f = v0[p] * (tau * st.gradient[k]);
+        for (int a = 0; a < dim; ++a) g[bs * (st.local[k] - offset) + 1 + a] += f[a];
+      }
+    }
+    TALUS_PETSC(VecRestoreArray(local, &g));
+    sum_over_ranks(da, local, global);
+    const PetscScalar* sums;
+    TALUS_PETSC(VecGetArrayRead(local, &sums));
+    for (int i = 0; i < n; ++i) {
+      const std::size_t node = static_cast<std::size_t>(offset + i);
+      const double m = fields.mass[node];
+      if (m > 0)
+        for (int a = 0; a < dim; ++a) acceleration[dim * node + a] = gravity[a] - sums[bs * i + 1 + a] / m;
+    }
+    TALUS_PETSC(VecRestoreArrayRead(local, &sums));
+  }
+  TALUS_PETSC(DMRestoreGlobalVector(da, &global));
+  TALUS_PETSC(DMRestoreLocalVector(da, &local));
+  return acceleration;
 }
 
 template <int dim>
@@ -316,6 +374,12 @@ template void particles_to_grid<2>(const Grid<2>&, const Particles<2>&, const st
                                    TransferScheme, GridFields<2>&, int);
 template void particles_to_grid<3>(const Grid<3>&, const Particles<3>&, const std::vector<Stencil<3>>&,
                                    TransferScheme, GridFields<3>&, int);
+template std::vector<double> stress_acceleration<2>(const Grid<2>&, const Particles<2>&,
+                                                    const std::vector<Stencil<2>>&, const GridFields<2>&,
+                                                    const Vector<2>&);
+template std::vector<double> stress_acceleration<3>(const Grid<3>&, const Particles<3>&,
+                                                    const std::vector<Stencil<3>>&, const GridFields<3>&,
+                                                    const Vector<3>&);
 template void grid_to_particles<2>(Particles<2>&, const std::vector<Stencil<2>>&,
                                    const std::vector<double>&, const std::vector<double>&,
                                    const std::vector<double>&, double, double, const TransferConfig&,

@@ -113,15 +113,19 @@ class MomentumSystem {
   // if `last`, g where it is unknown or without `last`.
   Vec initial_guess(bool last = true) const;
   double momentum_scale() const;  // sum_i m_i (|v_i^n| + h |g|), all ranks
-  // The step has the last step's grid acceleration (initial_guess(true) is
-  // then its continuation; not in a geostatic stage, whose steps start from
-  // rest in a pseudo-time), and the weights of the time-error estimate
-  // (NewtonSolver::Scale): the point's mass on each velocity unknown with a
-  // last acceleration, zero elsewhere (constrained components, rigid bodies'
+  // The step has a reference acceleration for its time-error estimate
+  // (NewtonSolver::Scale): the last step's grid acceleration, or where that
+  // is unknown the acceleration of the stresses at t^n
+  // (GridFields::start_acceleration); not in a geostatic stage, whose steps
+  // start from rest in a pseudo-time. The predictor v^n + h a of the
+  // estimate, and its weights: the point's mass on each velocity unknown
+  // with a reference, zero elsewhere (constrained components, rigid bodies'
   // points, their motions and contact impulses).
-  bool has_last_acceleration() const {
-    return !fields_.pseudo_time && fields_.last_acceleration.size() == velocity_old_.size();
+  bool has_time_error_reference() const {
+    return !fields_.pseudo_time && (fields_.last_acceleration.size() == velocity_old_.size() ||
+                                    fields_.start_acceleration.size() == velocity_old_.size());
   }
+  Vec time_error_predictor() const;
   Vec time_error_weights() const;
   const ActiveSet<dim>& active() const { return active_; }
   const Grid<dim>& grid() const { return grid_; }
@@ -218,6 +222,9 @@ class MomentumSystem {
   void rigid_rows(Vec v, Vec F);
   void rigid_jacobian(Mat J, const std::vector<double>& left);
   bool rigid_node(int node) const { return !rigid_.empty() && rigid_of_field_[node / points_] >= 0; }
+  // Node i's reference acceleration for the time-error estimate (dim
+  // values), or none (has_time_error_reference).
+  const double* reference_acceleration(int i) const;
   bool rigid_particle(std::size_t p) const;
   const RigidBody<dim>& rigid_body_of(int node) const { return rigid_[rigid_of_field_[node / points_]]; }
   PetscInt rigid_first_ = 0;  // this rank's first unknown block (global)

@@ -32,6 +32,11 @@ struct GridFields {
   // then. Not set by P2G (the run keeps it between steps); empty: unknown.
   // The predictor of the Newton iteration (MomentumSystem::initial_guess).
   std::vector<double> last_acceleration;
+  // Where the step has no last acceleration (its first step, after a
+  // re-partition): the acceleration of the stresses at t^n,
+  // stress_acceleration(), the time-error estimate's reference only; empty:
+  // none (quasi-static steps, a geostatic stage).
+  std::vector<double> start_acceleration;
   // A geostatic stage's step (docs/equilibrium.md): its time is a pseudo-time,
   // so Newton's tolerance does not follow a time error (NewtonSolver::Scale).
   bool pseudo_time = false;
@@ -58,6 +63,17 @@ template <int dim>
 void particles_to_grid(const Grid<dim>& grid, const Particles<dim>& particles,
                        const std::vector<Stencil<dim>>& stencils, TransferScheme scheme, GridFields<dim>& out,
                        int field_count = 1);
+
+// The grid acceleration of the particles' stresses at t^n, dim per node:
+// a_i = g - f_i / m_i with f_i = sum_p V0_p tau_p grad N_i(x_p) (the stored
+// Kirchhoff stress, as in the momentum rows), summed over the ranks like P2G;
+// NaN where m_i = 0. It leaves out the reactions of walls, obstacles and
+// contacts. The time-error estimate's reference where a step has no last
+// acceleration (docs/solver.md#the-tolerance-follows-the-time-error).
+template <int dim>
+std::vector<double> stress_acceleration(const Grid<dim>& grid, const Particles<dim>& particles,
+                                        const std::vector<Stencil<dim>>& stencils, const GridFields<dim>& fields,
+                                        const Vector<dim>& gravity);
 
 // G2P after the implicit solve. v_new: end-of-step grid velocity v^{n+1};
 // v_old: start-of-step v^n as used by the solve (zero on constrained
