@@ -217,6 +217,7 @@ StepReport Simulation<dim>::advance(double h) {
   MomentumSystem<dim> system(*grid_, *particles_, stencils, fields, active, materials_, gravity_, h, theta,
                              std::move(contacts), std::move(body_contacts), std::move(rigid));
   system.set_strain_increment(config_.time.strain_increment);
+  system.use_workspace(momentum_workspace_);
   // The ghost penalty (docs/solver.md#ghost-penalty): the grid functions
   // that particles barely touch at a body's edge get a stiffness tied to
   // their neighbours. Not in the equilibrium stage (its accumulated form

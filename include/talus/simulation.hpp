@@ -290,6 +290,7 @@ class Simulation {
   // reserves room for 4 functions per axis (3 kB in 3D), so a fresh vector
   // every step zeroed and page-faulted 400 MB at 128,000 3D particles.
   std::vector<Stencil<dim>> stencils_;
+  MomentumWorkspace momentum_workspace_;  // the step's system's large buffers, kept
   std::vector<int> packing_lattice_;  // per body: particles per cell of its lattice (particle_packing)
   double correction_work_ = 0.0;  // this rank's, of the current step (keep_particles_inside)
   ParticleEnergy particle_energy_;

@@ -137,6 +137,18 @@ void ActiveSet<dim>::to_grid(Vec compact, std::vector<double>& ghosted) const {
 }
 
 template <int dim>
+void ActiveSet<dim>::to_grid_active(Vec compact, std::vector<double>& ghosted, std::size_t padding) const {
+  TALUS_PETSC(VecScatterBegin(scatter_, compact, work_, INSERT_VALUES, SCATTER_FORWARD));
+  TALUS_PETSC(VecScatterEnd(scatter_, compact, work_, INSERT_VALUES, SCATTER_FORWARD));
+  const std::size_t size = compact_.size() * dim + padding;
+  if (ghosted.size() != size) ghosted.assign(size, 0.0);
+  const PetscScalar* w;
+  TALUS_PETSC(VecGetArrayRead(work_, &w));
+  for (const PetscInt e : active_entries_) ghosted[e] = w[e];
+  TALUS_PETSC(VecRestoreArrayRead(work_, &w));
+}
+
+template <int dim>
 void ActiveSet<dim>::add_to_compact(const std::vector<double>& ghosted, Vec compact) const {
   PetscScalar* w;
   TALUS_PETSC(VecGetArray(work_, &w));

@@ -26,14 +26,26 @@ void MomentumSystem<dim>::neighbour_columns(const std::array<int, dim>& ijk, int
   for (int a = 0; a < dim; ++a) neighbours *= width;
   cols.resize(neighbours);
   if (points) points->resize(neighbours);
+  // Neighbour n at offset d - reach per axis (n = sum_ax d_ax width^ax), its
+  // ghosted index the centre's plus sum_ax (d_ax - reach) stride_ax
+  // (Grid::local_index: x fastest).
+  const auto& start = grid_.ghost_start();
+  const auto& size = grid_.ghost_size();
+  std::array<int, dim> stride;
+  int centre = 0;
+  for (int ax = 0, s = 1; ax < dim; s *= size[ax], ++ax) {
+    stride[ax] = s;
+    centre += (ijk[ax] - start[ax]) * s;
+  }
   for (int n = 0; n < neighbours; ++n) {
-    std::array<int, dim> jk;
     bool inside = true;
+    int point = centre;
     for (int ax = 0, r = n; ax < dim; ++ax, r /= width) {
-      jk[ax] = ijk[ax] + r % width - reach;
-      inside &= jk[ax] >= grid_.ghost_start()[ax] && jk[ax] < grid_.ghost_start()[ax] + grid_.ghost_size()[ax];
+      const int offset = r % width - reach, j = ijk[ax] + offset;
+      inside = inside && j >= start[ax] && j < start[ax] + size[ax];
+      point += offset * stride[ax];
     }
-    const int point = inside ? grid_.local_index(jk) : -1;
+    if (!inside) point = -1;
     cols[n] = inside ? active_.compact_index(field * points_ + point) : -1;
     if (points) (*points)[n] = point;
   }
@@ -98,12 +110,19 @@ void MomentumSystem<dim>::jacobian(Vec v, Mat J) {
     jacobian_zeroed_.clear();
     std::vector<PetscInt> cols(neighbours);
     std::vector<int> neighbour_points;
+    // Which points have a constrained component: most have none, and their
+    // blocks need no entry by entry test.
+    std::vector<char> held(static_cast<std::size_t>(nodes_), 0);
+    for (int i = 0; i < nodes_; ++i)
+      for (int c = 0; c < dim; ++c) held[i] = held[i] || active_.constrained(i, c);
     for (std::size_t sa = 0; sa < slot_point.size(); ++sa) {
       const int point = slot_point[sa];
       neighbour_columns(grid_.global_index(point % points_), point / points_, cols, &neighbour_points);
       std::copy(cols.begin(), cols.end(), jacobian_columns_.begin() + sa * neighbours);
+      const bool point_held = held[point];
       for (int n = 0; n < neighbours; ++n) {
         const int neighbour = neighbour_points[n];
+        if (!point_held && (neighbour < 0 || !held[neighbour])) continue;
         for (int i = 0; i < dim; ++i)
           for (int k = 0; k < dim; ++k)
             if (active_.constrained(point, i) || (neighbour >= 0 && active_.constrained(neighbour, k)))

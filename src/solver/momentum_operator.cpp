@@ -1,5 +1,6 @@
 // The Jacobian as an operator (docs/solver.md#the-jacobian-as-an-operator):
 // its product from the particle tangents, without the matrix.
+#include <algorithm>
 #include <chrono>
 
 #include <stdexcept>
@@ -26,6 +27,22 @@ void MomentumSystem<dim>::prepare_operator(Vec v) {
 }
 
 template <int dim>
+const std::vector<int>& MomentumSystem<dim>::product_nodes() {
+  // Every node a product adds to: the particles' stencil nodes and the cut
+  // cells' nodes. (The padding node after a tensor-product row gets exact
+  // zeros added, tensor_stencil.cpp: it stays zero.)
+  if (!product_nodes_.empty() || stencils_.empty()) return product_nodes_;
+  std::vector<char> written(static_cast<std::size_t>(nodes_), 0);
+  for (const int node : packed_local_) written[node] = 1;
+  if (ghost_)
+    for (const auto& cell : ghost_->cells())
+      for (const int node : cell.node) written[node] = 1;
+  for (int i = 0; i < nodes_; ++i)
+    if (written[i]) product_nodes_.push_back(i);
+  return product_nodes_;
+}
+
+template <int dim>
 void MomentumSystem<dim>::apply_jacobian(Vec x, Vec y) {
   // y = J x with J as jacobian() assembles it, particle by particle:
   //   (J x)_a = m_a x_a + h theta^2 sum_p V_p sum_j dN_a/dx_j (A_p : L_p(x))_ij,
@@ -36,12 +53,14 @@ void MomentumSystem<dim>::apply_jacobian(Vec x, Vec y) {
   // the assembled matrix: in 3D (27 nodes) the matrix costs as much as 25
   // products (docs/solver.md#the-jacobian-as-an-operator).
   const auto t0 = std::chrono::steady_clock::now();
-  active_.to_grid(x, operator_x_);
-  for (const int e : active_.constrained_entries()) operator_x_[e] = 0.0;
   // One node of zeros past the end: the tensor-product rows are read and
-  // written padded (tensor_stencil.cpp).
-  operator_x_.resize(operator_x_.size() + dim, 0.0);
-  operator_y_.assign(operator_x_.size(), 0.0);
+  // written padded (tensor_stencil.cpp). Both ghosted vectors are kept for
+  // the step's products and zero outside the entries they are given: x
+  // outside the active ones, y outside the particles' and cut cells' nodes,
+  // zeroed again after each product (the grid can be several times larger).
+  active_.to_grid_active(x, operator_x_, dim);
+  for (const int e : active_.constrained_entries()) operator_x_[e] = 0.0;
+  if (operator_y_.size() != operator_x_.size()) operator_y_.assign(operator_x_.size(), 0.0);
   const double scale = h_ * theta_ * theta_;
   const double* xg = operator_x_.data();
   double* yg = operator_y_.data();
@@ -92,6 +111,7 @@ void MomentumSystem<dim>::apply_jacobian(Vec x, Vec y) {
   if (ghost_) ghost_->add_product(operator_x_, operator_y_, h_ * h_ * theta_);
   TALUS_PETSC(VecZeroEntries(y));
   active_.add_to_compact(operator_y_, y);
+  for (const int node : product_nodes()) std::fill_n(operator_y_.begin() + static_cast<std::ptrdiff_t>(dim) * node, dim, 0.0);
   PetscScalar* out;
   const PetscScalar* in;
   TALUS_PETSC(VecGetArray(y, &out));

@@ -112,6 +112,13 @@ template <int dim>
 MomentumSystem<dim>::~MomentumSystem() {
   VecDestroy(&evaluated_at_);
   VecDestroy(&contact_at_);
+  if (workspace_) jacobian_rows_.swap(workspace_->jacobian_rows);
+}
+
+template <int dim>
+void MomentumSystem<dim>::use_workspace(MomentumWorkspace& workspace) {
+  workspace_ = &workspace;
+  jacobian_rows_.swap(workspace.jacobian_rows);
 }
 
 template <int dim>
@@ -191,7 +198,7 @@ template <int dim>
 void MomentumSystem<dim>::evaluate_particles(Vec v) {
   const auto t0 = std::chrono::steady_clock::now();
   if (with_tangents_) pack_stencils();
-  active_.to_grid(v, velocity_);
+  active_.to_grid_active(v, velocity_);  // zero elsewhere: only active entries are set below
   for (const int e : active_.constrained_entries()) velocity_[e] = 0.0;
   if (!rigid_.empty()) {
     // A rigid body's grid velocities are its rigid motion (its contact

@@ -56,6 +56,10 @@ class ActiveSet {
   Vec create_vector() const;
   // Compact -> ghosted arrays (dim per point; inactive points get 0).
   void to_grid(Vec compact, std::vector<double>& ghosted) const;
+  // The same into a vector kept between calls, of the grid's size plus
+  // `padding` entries: set to zero at its first use, then only the active
+  // entries are written (every other entry must stay zero meanwhile).
+  void to_grid_active(Vec compact, std::vector<double>& ghosted, std::size_t padding = 0) const;
   // Ghosted arrays -> compact, summing contributions of every rank (ADD).
   void add_to_compact(const std::vector<double>& ghosted, Vec compact) const;
 
