@@ -15,14 +15,24 @@ time.step.
 
 usage: test_auto_step.py TALUS_BINARY SOURCE_DIR
 """
+import atexit
 import glob
 import math
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
 
 import yaml  # python3-yaml, installed by scripts/install_dependencies.sh
+
+# Open MPI 4 creates and removes /tmp/ompi.<host>.<uid> at every singleton
+# start, and starts that overlap another test's race on it ("orte_init
+# failed", exit code 1; docs/testing.md): this test's talus runs get a
+# session directory of their own.
+_ompi_sessions = tempfile.mkdtemp(prefix="ompi.")
+os.environ["OMPI_MCA_orte_tmpdir_base"] = _ompi_sessions
+atexit.register(shutil.rmtree, _ompi_sessions, True)
 
 talus, source = os.path.abspath(sys.argv[1]), os.path.abspath(sys.argv[2])
 failures = []

@@ -32,10 +32,12 @@
 
 usage: test_equilibrium.py TALUS_BINARY SOURCE_DIR
 """
+import atexit
 import csv
 import json
 import math
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -43,6 +45,14 @@ import tempfile
 import numpy as np
 import vtk  # python3-vtk9, installed by scripts/install_dependencies.sh
 from vtk.util.numpy_support import vtk_to_numpy
+
+# Open MPI 4 creates and removes /tmp/ompi.<host>.<uid> at every singleton
+# start, and starts that overlap another test's race on it ("orte_init
+# failed", exit code 1; docs/testing.md): this test's talus runs get a
+# session directory of their own.
+_ompi_sessions = tempfile.mkdtemp(prefix="ompi.")
+os.environ["OMPI_MCA_orte_tmpdir_base"] = _ompi_sessions
+atexit.register(shutil.rmtree, _ompi_sessions, True)
 
 talus = os.path.abspath(sys.argv[1])
 failures = []

@@ -14,6 +14,7 @@ step), which must end with 0, 2 or 3 (done, refused, failed) and no crash.
 
 usage: test_fuzz_cases.py TALUS_BINARY SOURCE_DIR [COUNT] [SEED]
 """
+import atexit
 import glob
 import os
 import random
@@ -23,6 +24,14 @@ import sys
 import tempfile
 
 import yaml  # python3-yaml, installed by scripts/install_dependencies.sh
+
+# Open MPI 4 creates and removes /tmp/ompi.<host>.<uid> at every singleton
+# start, and starts that overlap another test's race on it ("orte_init
+# failed", exit code 1; docs/testing.md): this test's talus runs get a
+# session directory of their own.
+_ompi_sessions = tempfile.mkdtemp(prefix="ompi.")
+os.environ["OMPI_MCA_orte_tmpdir_base"] = _ompi_sessions
+atexit.register(shutil.rmtree, _ompi_sessions, True)
 
 talus, source = os.path.abspath(sys.argv[1]), os.path.abspath(sys.argv[2])
 count = int(sys.argv[3]) if len(sys.argv) > 3 else 60

@@ -29,9 +29,11 @@ without.
 
 usage: test_packing_collapse.py TALUS_BINARY SOURCE_DIR
 """
+import atexit
 import csv
 import json
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -41,6 +43,14 @@ sys.path.insert(0, os.path.join(source, "scripts"))
 import study_column_aspect as study  # noqa: E402
 from particle_packing import packing  # noqa: E402
 from pvd import pvd_series, read_particles  # noqa: E402
+
+# Open MPI 4 creates and removes /tmp/ompi.<host>.<uid> at every singleton
+# start, and starts that overlap another test's race on it ("orte_init
+# failed", exit code 1; docs/testing.md): this test's talus runs get a
+# session directory of their own.
+_ompi_sessions = tempfile.mkdtemp(prefix="ompi.")
+os.environ["OMPI_MCA_orte_tmpdir_base"] = _ompi_sessions
+atexit.register(shutil.rmtree, _ompi_sessions, True)
 
 study.FLOOR = "fixed"
 failures = []

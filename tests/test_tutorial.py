@@ -22,6 +22,7 @@ on the tutorial's cases (issue 15 item 9).
 
 usage: test_tutorial.py TALUS_BINARY SOURCE_DIR
 """
+import atexit
 import os
 import re
 import shlex
@@ -29,6 +30,14 @@ import shutil
 import subprocess
 import sys
 import tempfile
+
+# Open MPI 4 creates and removes /tmp/ompi.<host>.<uid> at every singleton
+# start, and starts that overlap another test's race on it ("orte_init
+# failed", exit code 1; docs/testing.md): this test's talus runs get a
+# session directory of their own.
+_ompi_sessions = tempfile.mkdtemp(prefix="ompi.")
+os.environ["OMPI_MCA_orte_tmpdir_base"] = _ompi_sessions
+atexit.register(shutil.rmtree, _ompi_sessions, True)
 
 talus, source = os.path.abspath(sys.argv[1]), os.path.abspath(sys.argv[2])
 doc = open(os.path.join(source, "docs", "tutorial.md"), encoding="utf-8").read()
