@@ -207,8 +207,8 @@ StepReport Simulation<dim>::advance(double h) {
   // time-error estimate starts from the stresses' acceleration at t^n; not in
   // a quasi-static step, whose user asks for its equilibrium rather than its
   // dynamics (docs/solver.md#the-tolerance-follows-the-time-error).
-  if (!equilibrium_stage_ && last_acceleration_.empty() &&
-      h * p_wave_speed_ / grid_->cell_size() < NewtonSolver<dim>::quasi_static_wave_cells)
+  const double wave_cells = h * p_wave_speed_ / grid_->cell_size();  // cells a P-wave crosses in the step
+  if (!equilibrium_stage_ && last_acceleration_.empty() && wave_cells < NewtonSolver<dim>::quasi_static_wave_cells)
     fields.start_acceleration = stress_acceleration(*grid_, *particles_, stencils, fields, gravity_);
   {
     PetscInt local = static_cast<PetscInt>(body_contacts.size());
@@ -246,7 +246,7 @@ StepReport Simulation<dim>::advance(double h) {
   if (active.global_count() > 0) {
     // How static the step is for the linear solver: the cells a P-wave
     // crosses in it (docs/solver.md#geometric-multigrid).
-    newton_->set_wave_cells(h * p_wave_speed_ / grid_->cell_size());
+    newton_->set_wave_cells(wave_cells);
     report.newton = newton_->solve(system);
   } else {
     report.newton.converged = true;

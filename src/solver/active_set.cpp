@@ -138,6 +138,7 @@ void ActiveSet<dim>::to_grid(Vec compact, std::vector<double>& ghosted) const {
 
 template <int dim>
 void ActiveSet<dim>::to_grid_active(Vec compact, std::vector<double>& ghosted, std::size_t padding) const {
+  // work_ is zero outside the active entries, which the scatter overwrites.
   TALUS_PETSC(VecScatterBegin(scatter_, compact, work_, INSERT_VALUES, SCATTER_FORWARD));
   TALUS_PETSC(VecScatterEnd(scatter_, compact, work_, INSERT_VALUES, SCATTER_FORWARD));
   const std::size_t size = compact_.size() * dim + padding;
