@@ -287,6 +287,7 @@ StepReport Simulation<dim>::advance(double h) {
       again.newton.linear_iterations += report.newton.linear_iterations;
       again.newton.factorizations += report.newton.factorizations;
       again.newton.jacobian_matrices += report.newton.jacobian_matrices;
+      again.newton.block_diagonals += report.newton.block_diagonals;
       again.solve_seconds += report.solve_seconds;
       again.transfer_seconds += report.transfer_seconds;
       return again;

@@ -348,6 +348,7 @@ RunSummary Simulation<dim>::run_steps(std::ostream* progress, const ProgressOpti
     summary.multigrid_fallbacks += r.newton.multigrid_fallback;
     summary.factorizations += r.newton.factorizations;
     summary.jacobian_matrices += r.newton.jacobian_matrices;
+    summary.block_diagonals += r.newton.block_diagonals;
     summary.contact_resolves += r.contact_resolves;
     if (!r.converged) {
       ++summary.cutbacks;

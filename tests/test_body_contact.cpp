@@ -248,6 +248,9 @@ void check_body_jacobian(bool three_bodies = false) {
   CHECK(norm_diff <= 1e-6 * norm_jw);
   CHECK(testing::block_matrix_difference(system, v, J) <= 1e-14);
   CHECK(testing::operator_difference(system, v, w, Jw) <= 1e-13);
+  // Point-block Jacobi's matrix (3D's default preconditioner of the
+  // operator): the Jacobian's diagonal blocks, summed without the block rows.
+  CHECK(testing::block_diagonal_difference(system, v, J) <= 1e-13);
   PetscInt rows;
   TALUS_PETSC(MatGetSize(J, &rows, nullptr));
   CHECK(rows == active.global_count() * dim);  // contact adds no unknowns

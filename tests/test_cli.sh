@@ -249,21 +249,28 @@ sed -e "s#directory: .*#directory: $work/unused_out#" -e "s#  end: .*#  end: 0.0
 grep -q "talus: warning: PETSc options never read by the solver (misspelled, or for another solver configuration): -talus_sub_pc_type$" unused.err ||
   { echo "FAIL: no warning for -talus_sub_pc_type"; cat unused.err; exit 1; }
 
-# 3D defaults to the Jacobian as an operator (docs/solver.md#the-jacobian-as-an-operator):
-# matrices only for the factors; -talus_jacobian matrix assembles one per
-# Newton iteration, with the same Newton iterations (the same iterates up to
-# round-off).
+# 3D defaults to the Jacobian as an operator (docs/solver.md#the-jacobian-as-an-operator)
+# preconditioned by point-block Jacobi (docs/solver.md#point-block-jacobi):
+# no matrix at all, one block diagonal per Newton iteration, no factors.
+# With ILU(0) the operator assembles matrices only for the factors;
+# -talus_jacobian matrix assembles one per Newton iteration, with the same
+# Newton iterations (the same iterates up to round-off).
 sed -e "s#directory: .*#directory: $work/operator_out#" -e "s#  end: .*#  end: 0.1#" "$repo/inputs/rock_block_polyhedron_3d.yaml" > operator.yaml
-"$talus" run operator.yaml --quiet > operator.log 2>&1 || { echo "FAIL: 3D operator run"; cat operator.log; exit 1; }
-"$talus" run operator.yaml --quiet --overwrite -talus_jacobian matrix > matrix.log 2>&1 || { echo "FAIL: 3D matrix run"; cat matrix.log; exit 1; }
-/usr/bin/python3 - operator.log matrix.log <<'PY' || exit 1
+"$talus" run operator.yaml --quiet > default.log 2>&1 || { echo "FAIL: 3D default run"; cat default.log; exit 1; }
+"$talus" run operator.yaml --quiet --overwrite -talus_pc_type ilu > operator.log 2>&1 || { echo "FAIL: 3D operator run"; cat operator.log; exit 1; }
+"$talus" run operator.yaml --quiet --overwrite -talus_pc_type ilu -talus_jacobian matrix > matrix.log 2>&1 || { echo "FAIL: 3D matrix run"; cat matrix.log; exit 1; }
+/usr/bin/python3 - default.log operator.log matrix.log <<'PY' || exit 1
 import json, sys
-op, mat = (json.loads(open(f).read().split("talus-summary:", 1)[1].splitlines()[0]) for f in sys.argv[1:3])
-ok = (op["jacobian_matrices"] < op["newton_iterations"] and op["jacobian_matrices"] == op["factorizations"]
+default, op, mat = (json.loads(open(f).read().split("talus-summary:", 1)[1].splitlines()[0]) for f in sys.argv[1:4])
+ok = (default["jacobian_matrices"] == 0 and default["factorizations"] == 0
+      and default["block_diagonals"] == default["newton_iterations"] > 0
+      and op["jacobian_matrices"] < op["newton_iterations"] and op["jacobian_matrices"] == op["factorizations"]
+      and op["block_diagonals"] == 0
       and mat["jacobian_matrices"] == mat["newton_iterations"] and op["newton_iterations"] == mat["newton_iterations"])
-print(f"3D operator: {op['newton_iterations']} Newton, {op['jacobian_matrices']} matrices; "
-      f"matrix: {mat['newton_iterations']} Newton, {mat['jacobian_matrices']} matrices")
-sys.exit(0 if ok else "FAIL: the 3D default does not assemble matrices only for its factors")
+print(f"3D default: {default['newton_iterations']} Newton, {default['block_diagonals']} block diagonals, "
+      f"{default['jacobian_matrices']} matrices; ILU(0) on the operator: {op['newton_iterations']} Newton, "
+      f"{op['jacobian_matrices']} matrices; on the matrix: {mat['newton_iterations']} Newton, {mat['jacobian_matrices']} matrices")
+sys.exit(0 if ok else "FAIL: the 3D default assembles matrices, or the operator more than its factors need")
 PY
 
 # Linear hats are accepted with a warning about the cell-crossing error (docs/grid.md).

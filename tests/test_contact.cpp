@@ -311,6 +311,9 @@ void check_system_jacobian(bool slip_floor_and_wall) {
   // The Jacobian as an operator, without the matrix (3D's default with kept
   // factors): the same products, summed in another order (round-off).
   CHECK(testing::operator_difference(system, v, w, Jw) <= 1e-13);
+  // Point-block Jacobi's matrix (3D's default preconditioner of the
+  // operator): the Jacobian's diagonal blocks, summed without the block rows.
+  CHECK(testing::block_diagonal_difference(system, v, J) <= 1e-13);
   PetscInt rows;
   TALUS_PETSC(MatGetSize(J, &rows, nullptr));
   CHECK(rows == active.global_count() * dim);  // contact adds no unknowns

@@ -156,6 +156,9 @@ void check_jacobian(const std::string& shape, double theta, const std::string& m
   // The Jacobian as an operator, without the matrix (3D's default with kept
   // factors): the same products, summed in another order (round-off).
   CHECK(testing::operator_difference(system, v, w, Jw) <= 1e-13);
+  // Point-block Jacobi's matrix (3D's default preconditioner of the
+  // operator): the Jacobian's diagonal blocks, summed without the block rows.
+  CHECK(testing::block_diagonal_difference(system, v, J) <= 1e-13);
   // ... in 3D through the tensor-product kernels for every particle of
   // quadratic B-splines at points (tensor_stencil.cpp), node by node for
   // hats and in 2D, and both in one product with quadratic B-splines

@@ -128,6 +128,33 @@ double operator_difference(MomentumSystem<dim>& system, Vec v, Vec w, Vec Jw) {
   return difference / norm;
 }
 
+// max |D_rr - J_rr| / max |J_rr| over the owned dim x dim diagonal blocks,
+// with D from MomentumSystem::jacobian_block_diagonal (point-block Jacobi's
+// matrix, no block rows) and J the assembled Jacobian at v.
+template <int dim>
+double block_diagonal_difference(MomentumSystem<dim>& system, Vec v, Mat J) {
+  Mat D = system.create_block_diagonal_matrix();
+  system.jacobian_block_diagonal(v, D);
+  PetscInt first = 0, last = 0;
+  MatGetOwnershipRange(J, &first, &last);
+  double scale = 0.0, difference = 0.0;
+  for (PetscInt r = first; r < last; r += dim) {
+    PetscInt index[dim];
+    for (int a = 0; a < dim; ++a) index[a] = r + a;
+    double j[dim * dim], d[dim * dim];
+    MatGetValues(J, dim, index, dim, index, j);
+    MatGetValues(D, dim, index, dim, index, d);
+    for (int k = 0; k < dim * dim; ++k) {
+      scale = std::max(scale, std::abs(j[k]));
+      difference = std::max(difference, std::abs(j[k] - d[k]));
+    }
+  }
+  MatDestroy(&D);
+  MPI_Allreduce(MPI_IN_PLACE, &scale, 1, MPI_DOUBLE, MPI_MAX, PETSC_COMM_WORLD);
+  MPI_Allreduce(MPI_IN_PLACE, &difference, 1, MPI_DOUBLE, MPI_MAX, PETSC_COMM_WORLD);
+  return difference / scale;
+}
+
 // max_k |a_k - b_k| / max_k |a_k| (the plain difference when a is zero).
 inline double max_relative_difference(const std::vector<double>& a, const std::vector<double>& b) {
   double scale = 0, diff = 0;

@@ -73,6 +73,7 @@ struct RunSummary {
   long contact_resolves = 0;      // steps solved again with the contact points their material crossed (docs/contact.md)
   long factorizations = 0;        // numeric LU factorizations with reused factors (docs/solver.md#reused-factorizations)
   long jacobian_matrices = 0;     // Jacobian matrices assembled (docs/solver.md#the-jacobian-as-an-operator)
+  long block_diagonals = 0;       // the Jacobian's diagonal blocks alone (docs/solver.md#point-block-jacobi)
   // Balanced ranks (docs/parallel.md): grid re-partitions during the run, the
   // largest max/mean particles per rank at the start of a step, and the
   // particles per rank at the end.

@@ -124,7 +124,7 @@ void print_summary(const talus::CaseConfig& config, const talus::RunSummary& s, 
               << ", \"equilibrium_gravity_work\": " << s.equilibrium_gravity_work
               << ", \"direct_fallbacks\": " << s.direct_fallbacks
               << ", \"multigrid_fallbacks\": " << s.multigrid_fallbacks << ", \"inverting_cutbacks\": " << s.inverting_cutbacks << ", \"contact_resolves\": " << s.contact_resolves << ", \"factorizations\": " << s.factorizations
-              << ", \"jacobian_matrices\": " << s.jacobian_matrices
+              << ", \"jacobian_matrices\": " << s.jacobian_matrices << ", \"block_diagonals\": " << s.block_diagonals
               << ", \"ranks\": " << s.final_load.ranks << ", \"rebalances\": " << s.rebalances
               << ", \"worst_imbalance\": " << s.worst_imbalance << ", \"final_min_rank_particles\": "
               << s.final_load.min << ", \"final_max_rank_particles\": " << s.final_load.max

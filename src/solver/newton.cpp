@@ -58,17 +58,17 @@ PetscErrorCode form_jacobian(SNES snes, Vec v, Mat J, Mat P, void* ctx) {
     return SNESSetLagPreconditioner(snes, factorization.fresh ? -2 : -1);
   }
   factorization.fresh = false;
+  // Point-block Jacobi's blocks cost a few per cent of a product: fresh at
+  // every iterate.
+  if (context->block_diagonal) factorization.refactor = true;
   PetscErrorCode ierr = petsc_callback([&] {
     context->system->prepare_operator(v);
-    if (factorization.refactor) {
-      context->system->jacobian(v, P);
-      ++context->assembled;
-    }
+    if (factorization.refactor) context->assemble_preconditioner(v, P);
   });
   if (ierr) return ierr;
   PetscCall(MatAssemblyBegin(J, MAT_FINAL_ASSEMBLY));  // the operator changed with v
   PetscCall(MatAssemblyEnd(J, MAT_FINAL_ASSEMBLY));
-  if (factorization.refactor) factorization.factor_now();
+  if (factorization.refactor) factorization.factor_now(!context->block_diagonal);
   return SNESSetLagPreconditioner(snes, factorization.fresh ? -2 : -1);
 }
 
@@ -134,13 +134,12 @@ PetscErrorCode resolve_on_fresh_factors(SNESLineSearch line_search, Vec x, Vec d
     // The matrix of the factors, at this iterate (assembled only for factors).
     Mat J, P;
     PetscCall(SNESGetJacobian(snes, &J, &P, nullptr, nullptr));
-    PetscCall(petsc_callback([&] { context->system->jacobian(x, P); }));
-    ++context->assembled;
+    PetscCall(petsc_callback([&] { context->assemble_preconditioner(x, P); }));
   }
   // The PC's matrix changed since its factors were computed, so PCSetUp
   // factors it again once reuse is off.
   PetscCall(KSPSetReusePreconditioner(ksp, PETSC_FALSE));
-  factorization.factor_now();
+  factorization.factor_now(!context->block_diagonal);
   ++factorization.resolves;
   context->linear_start = std::chrono::steady_clock::now();
   PetscCall(KSPSolve(ksp, F, direction));  // counted in KSPGetTotalIterations
@@ -161,6 +160,7 @@ NewtonReport NewtonSolver<dim>::retried(const NewtonReport& first, NewtonReport 
   retry.linear_iterations += first.linear_iterations;
   retry.factorizations += first.factorizations;
   retry.jacobian_matrices += first.jacobian_matrices;
+  retry.block_diagonals += first.block_diagonals;
   retry.linear_seconds += first.linear_seconds;
   retry.structure_built = first.structure_built;
   return retry;
@@ -201,136 +201,6 @@ void NewtonSolver<dim>::destroy() {
   unknown_count_ = -1;
 }
 
-template <int dim>
-void NewtonSolver<dim>::configure_direct(KSP ksp) {
-  PC pc;
-  TALUS_PETSC(KSPGetPC(ksp, &pc));
-  TALUS_PETSC(KSPSetType(ksp, KSPPREONLY));
-  TALUS_PETSC(PCSetType(pc, PCLU));
-  // PETSc's own LU is the fastest for small serial systems; MUMPS factors in parallel.
-  int size = 1;
-  MPI_Comm_size(comm_, &size);
-  TALUS_PETSC(PCFactorSetMatSolverType(pc, size > 1 ? MATSOLVERMUMPS : MATSOLVERPETSC));
-}
-
-template <int dim>
-void NewtonSolver<dim>::configure(PetscInt unknowns) {
-  // Defaults are set on the objects, then SNESSetFromOptions lets the options
-  // database (command line, case file) override any of them.
-  //
-  // Default: Newton with a backtracking line search, LU below the direct
-  // limit, GMRES + GAMG above it. At large steps full steps cycle between
-  // branches of the return map and cut the step back tens of times per
-  // second of flow (docs/solver.md#large-steps); the line search removes
-  // nearly all of those cut-backs. A trust region (-talus_snes_type newtontr)
-  // does too, but a 2-rank contact test failed a step with it in CI.
-  // Nonlinear GMRES over an inexact Newton step (-talus_snes_type ngmres,
-  // configured below) is faster, but its serial and parallel runs of a
-  // contact case differ by more than the solver tolerance.
-  TALUS_PETSC(SNESSetOptionsPrefix(snes_, "talus_"));
-  // Backtracking on the merit ||F||^2 (Armijo): the full Newton step when it
-  // reduces the residual enough, a shorter one when it would cross a kink
-  // of the return map or the cone and land far beyond (docs/solver.md#large-steps).
-  set_newton(snes_, 25, SNESLINESEARCHBT);
-  KSP ksp;
-  PC pc;
-  TALUS_PETSC(SNESGetKSP(snes_, &ksp));
-  TALUS_PETSC(KSPGetPC(ksp, &pc));
-  if (unknowns <= direct_limit_) {
-    // GMRES preconditioned by factors that are kept while they work
-    // (docs/solver.md#reused-factorizations). Right preconditioning: the
-    // Krylov residual is the true one. On one rank the factors are an
-    // incomplete LU, ILU(1) in 2D and ILU(0) in 3D, where the Jacobian has
-    // 125 block neighbours per row and the full LU costs 5 times an ILU(0):
-    // measured on plastic and contact cases, 1.5-1.8x less CPU than kept LU
-    // factors (docs/solver.md#defaults). A fresh ILU that cannot solve a
-    // Newton system sends the step to the LU fallback or a cut-back
-    // (NewtonSolver::solve). On several ranks:
-    // block Jacobi with the same incomplete LU on each rank's block (PETSc's
-    // ILU is serial), kept in the same way.
-    configure_direct(ksp);
-    int size = 1;
-    MPI_Comm_size(comm_, &size);
-    // With bodies in contact, ILU(1) in 3D too: ILU(0) of the contact rows
-    // between a stiff boulder and sand could not solve 40 of 52 steps of a
-    // 3D landslide (each then solved by LU at every iterate: 17 s), ILU(1)
-    // solved them all (5 s; kept LU: 8.4 s; docs/contact.md#bodies-in-contact).
-    // With domain quadrature in 2D, ILU(0): its 7 x 7 block rows hold the
-    // coupling ILU(1) adds to the 5 x 5 rows of point quadrature (measured on
-    // the reference column: 2,108 Newton iterations against 2,079, no LU
-    // fallback, a third less time in the linear solves;
-    // docs/grid.md#particle-quadrature). ILU(0) in 2D above
-    // -talus_ilu_fill_limit unknowns too (default_ilu_fill_limit).
-    const bool point_2d = dim == 2 && quadrature_ == ParticleQuadrature::point && unknowns <= ilu_fill_limit_;
-    const PetscInt levels = point_2d || velocity_fields_ > 1 ? 1 : 0;
-    if (starts_on_multigrid(unknowns)) {  // quasi-static, above the LU fallback (docs/solver.md#geometric-multigrid)
-      TALUS_PETSC(PCSetType(pc, PCMG));
-    } else if (size == 1) {
-      TALUS_PETSC(PCSetType(pc, PCILU));
-      TALUS_PETSC(PCFactorSetLevels(pc, levels));
-    } else {
-      TALUS_PETSC(PCSetType(pc, PCBJACOBI));
-      default_block_option("sub_pc_factor_levels", std::to_string(levels));
-    }
-    set_right_gmres(ksp, 1e-8, 50);
-    set_inexact_newton(snes_);
-  } else {
-    set_right_gmres(ksp, 1e-11, 500);
-    TALUS_PETSC(PCSetType(pc, PCGAMG));
-  }
-  TALUS_PETSC(SNESSetFromOptions(snes_));
-  guard_superlu_ilu(pc);
-  {
-    // Right preconditioning is talus's choice for GMRES; a Krylov method
-    // asked for by option that has no right-preconditioned form (CG, MINRES,
-    // ...) gets its own default side instead of a PETSc error at the first
-    // solve, unless the side is an option too.
-    PetscBool gmres = PETSC_FALSE, side_given = PETSC_FALSE;
-    TALUS_PETSC(PetscObjectTypeCompareAny(reinterpret_cast<PetscObject>(ksp), &gmres, KSPGMRES, KSPFGMRES,
-                                          KSPLGMRES, KSPDGMRES, KSPPGMRES, KSPBCGS, KSPIBCGS, KSPFBCGS, KSPFBCGSR,
-                                          KSPBCGSL, KSPPREONLY, ""));
-    TALUS_PETSC(PetscOptionsHasName(nullptr, "talus_", "-ksp_pc_side", &side_given));
-    if (!gmres && !side_given) TALUS_PETSC(KSPSetPCSide(ksp, PC_SIDE_DEFAULT));
-  }
-  PetscBool accelerated = PETSC_FALSE;
-  TALUS_PETSC(PetscObjectTypeCompareAny(reinterpret_cast<PetscObject>(snes_), &accelerated, SNESNGMRES,
-                                        SNESANDERSON, ""));
-  if (accelerated) {
-    // The inner Newton step (prefix talus_npc_): one iteration, full step,
-    // an inexact right-preconditioned GMRES solve (relative 1e-5: the outer
-    // iteration corrects it) with ILU, or GAMG above the direct limit.
-    SNES newton;
-    TALUS_PETSC(SNESGetNPC(snes_, &newton));
-    set_newton(newton, 1, SNESLINESEARCHBASIC);
-    KSP inner;
-    PC inner_pc;
-    TALUS_PETSC(SNESGetKSP(newton, &inner));
-    TALUS_PETSC(KSPGetPC(inner, &inner_pc));
-    set_right_gmres(inner, 1e-5, 200);
-    int size = 1;
-    MPI_Comm_size(comm_, &size);
-    TALUS_PETSC(PCSetType(inner_pc, unknowns <= direct_limit_ ? (size > 1 ? PCBJACOBI : PCILU) : PCGAMG));
-    TALUS_PETSC(SNESSetFromOptions(newton));
-  }
-  // After the options: nobody replaces the physical test.
-  TALUS_PETSC(SNESSetConvergenceTest(snes_, physical_convergence<dim>, &scale_, nullptr));
-  // Reused factorizations wherever an LU preconditions a Krylov method of the
-  // outer line-search Newton (not under preonly, where stale factors would
-  // change the Newton direction, nor inside a nonlinear preconditioner).
-  // Line-search Newton only: the trust region takes the stale solve's
-  // direction as it is and stalls on it.
-  PetscBool preonly = PETSC_FALSE, line_search = PETSC_FALSE;
-  TALUS_PETSC(PetscObjectTypeCompare(reinterpret_cast<PetscObject>(ksp), KSPPREONLY, &preonly));
-  TALUS_PETSC(PetscObjectTypeCompare(reinterpret_cast<PetscObject>(snes_), SNESNEWTONLS, &line_search));
-  factorization_.reused_mode = line_search && !preonly && (solves_by_factors() || solves_by_multigrid());
-  PetscBool ksp_chosen = PETSC_FALSE;
-  TALUS_PETSC(PetscOptionsHasName(nullptr, "talus_", "-ksp_type", &ksp_chosen));
-  // Without reuse the factors are always fresh and GMRES over them is one
-  // iteration of overhead: a plain LU solve, unless GMRES was asked for.
-  if (!factorization_.reused_mode && !accelerated && solves_by_lu() && !ksp_chosen)
-    TALUS_PETSC(KSPSetType(ksp, KSPPREONLY));
-}
-
 // Block AIJ (BAIJ, blocks of dim x dim) for PETSc's own (incomplete) LU or
 // MUMPS, which factor it with block kernels: 1.3-1.7x faster factorization
 // and assembly than AIJ (docs/benchmarks.md). AIJ for everything else: GAMG,
@@ -341,6 +211,7 @@ MatType NewtonSolver<dim>::matrix_type() const {
   if (!solves_by_factors()) return MATAIJ;
   // Incomplete LU (also in block Jacobi's blocks) is PETSc's own, with block
   // kernels on BAIJ, unless another package is named (SuperLU's ILUTP).
+  if (solving_pc_is(PCPBJACOBI) || solving_pc_is(PCJACOBI)) return MATBAIJ;
   MatSolverType package = nullptr;
   if (!solving_pc_is(PCBJACOBI)) TALUS_PETSC(PCFactorGetMatSolverType(pc, &package));
   if (!solves_by_lu()) return package == nullptr || std::strcmp(package, MATSOLVERPETSC) == 0 ? MATBAIJ : MATAIJ;
@@ -373,10 +244,12 @@ PC NewtonSolver<dim>::solving_pc() const {
 
 template <int dim>
 bool NewtonSolver<dim>::solves_by_factors() const {
-  // Block Jacobi factors its blocks (ILU by default): kept in the same way.
+  // Block Jacobi factors its blocks (ILU by default): kept in the same way,
+  // as are (point-block) Jacobi's inverted diagonals.
   PetscBool factors = PETSC_FALSE;
   TALUS_PETSC(
-      PetscObjectTypeCompareAny(reinterpret_cast<PetscObject>(solving_pc()), &factors, PCLU, PCILU, PCBJACOBI, ""));
+      PetscObjectTypeCompareAny(reinterpret_cast<PetscObject>(solving_pc()), &factors, PCLU, PCILU, PCBJACOBI,
+                                                 PCPBJACOBI, PCJACOBI, ""));
   return factors;
 }
 
@@ -397,6 +270,7 @@ bool NewtonSolver<dim>::same_unknowns(const MomentumSystem<dim>& system) const {
   int same = snes_ && reuse_ && !fallback_structure_ && !stale_structure_ && unknown_count_ == count &&
              unknown_points_ == system.active().owned_points() && system.rigid_bodies().empty() &&
              built_on_multigrid_ == starts_on_multigrid(count * dim) &&
+             built_point_block_ == point_block_default(system) &&
              (!solves_by_multigrid() || multigrid_held_ == contact_rows(system));
   int all = 0;
   MPI_Allreduce(&same, &all, 1, MPI_INT, MPI_MIN, comm_);
@@ -413,6 +287,7 @@ void NewtonSolver<dim>::build(MomentumSystem<dim>& system, PetscInt unknowns, Fa
   TALUS_PETSC(SNESCreate(comm_, &snes_));
   fallback_structure_ = fallback != Fallback::none;
   built_on_multigrid_ = starts_on_multigrid(unknowns);
+  built_point_block_ = false;
   factorization_.reused_mode = false;
   factorization_.refactor = true;
   if (fallback == Fallback::multigrid) {
@@ -436,19 +311,21 @@ void NewtonSolver<dim>::build(MomentumSystem<dim>& system, PetscInt unknowns, Fa
     factorization_.reused_mode = true;
     TALUS_PETSC(SNESSetConvergenceTest(snes_, physical_convergence<dim>, &scale_, nullptr));
   } else {
-    configure(unknowns);
+    built_point_block_ = point_block_default(system);
+    configure(unknowns, built_point_block_);
     if (solves_by_multigrid()) build_multigrid(system);
   }
-  J_ = system.create_matrix(matrix_type());
   // The Jacobian as an operator where kept factors precondition a Krylov
   // method: by default (auto) with 27-point stencils (3D quadratic
   // B-splines), whose matrix costs about 25 operator products to assemble,
   // more than the Krylov iterations of a Newton step need; in 2D (9 points)
   // the matrix is cheaper than the products (docs/solver.md#the-jacobian-as-an-operator).
   // Rigid bodies' rows exist only in the assembled matrix.
-  context_.jacobian_operator = factorization_.reused_mode && system.rigid_bodies().empty() &&
-                               (jacobian_choice_ == "operator" ||
-                                (jacobian_choice_ == "auto" && system.stencil_nodes() >= 27));
+  context_.jacobian_operator = factorization_.reused_mode && operator_expected(system);
+  // Point-block Jacobi of the operator needs the diagonal blocks only
+  // (docs/solver.md#point-block-jacobi), not the block rows.
+  context_.block_diagonal = context_.jacobian_operator && (solving_pc_is(PCPBJACOBI) || solving_pc_is(PCJACOBI));
+  J_ = context_.block_diagonal ? system.create_block_diagonal_matrix() : system.create_matrix(matrix_type());
   if (context_.jacobian_operator) {
     PetscInt rows, columns, global_rows, global_columns;
     TALUS_PETSC(MatGetLocalSize(J_, &rows, &columns));
@@ -461,6 +338,22 @@ void NewtonSolver<dim>::build(MomentumSystem<dim>& system, PetscInt unknowns, Fa
   TALUS_PETSC(VecDestroy(&v));
   unknown_points_ = system.active().owned_points();
   unknown_count_ = system.active().global_count();
+}
+
+// Point-block Jacobi by default where the Jacobian is a 3D operator of one
+// velocity field in a dynamic step (docs/solver.md#point-block-jacobi): with
+// bodies in contact its blocks miss the stiff contact couplings (3D boulders
+// in sand: 328 LU fallbacks where ILU(1) needs none), and a quasi-static step
+// is an elliptic problem that a diagonal does not precondition.
+template <int dim>
+bool NewtonSolver<dim>::point_block_default(const MomentumSystem<dim>& system) const {
+  return dim == 3 && velocity_fields_ == 1 && operator_expected(system) && wave_cells_ < quasi_static_wave_cells;
+}
+
+template <int dim>
+bool NewtonSolver<dim>::operator_expected(const MomentumSystem<dim>& system) const {
+  return system.rigid_bodies().empty() &&
+         (jacobian_choice_ == "operator" || (jacobian_choice_ == "auto" && system.stencil_nodes() >= 27));
 }
 
 template <int dim>
@@ -502,6 +395,7 @@ NewtonReport NewtonSolver<dim>::run_snes(MomentumSystem<dim>& system, Start star
   context_.linear_failures = &linear_failures_;
   const long factorizations_before = factorization_.factorizations;
   const long assembled_before = context_.assembled;
+  const long block_diagonals_before = context_.block_diagonals;
   const double linear_seconds_before = context_.linear_seconds;
   TALUS_PETSC(SNESSetFunction(snes_, F_, form_residual<dim>, &context_));
   TALUS_PETSC(SNESSetJacobian(snes_, context_.jacobian_operator ? J_operator_ : J_, J_, form_jacobian<dim>, &context_));
@@ -556,6 +450,7 @@ NewtonReport NewtonSolver<dim>::run_snes(MomentumSystem<dim>& system, Start star
   report.linear_failures = linear_failures_;
   report.factorizations = factorization_.factorizations - factorizations_before;
   report.jacobian_matrices = context_.assembled - assembled_before;
+  report.block_diagonals = context_.block_diagonals - block_diagonals_before;
   report.linear_seconds = context_.linear_seconds - linear_seconds_before;
   report.fresh_resolves = factorization_.resolves - resolves_before;
   if (!report.converged && scale_.stagnated) report.reason = "STAGNATED";

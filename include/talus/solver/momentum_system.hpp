@@ -116,6 +116,11 @@ class MomentumSystem {
   }
   int stencil_nodes() const;  // grid points per particle: 9 or 27 (quadratic B-splines), 4 or 8 (linear hats)
   void apply_jacobian(Vec x, Vec y);
+  // The Jacobian's dim x dim diagonal blocks at v (those of jacobian(v, D))
+  // into D, a matrix of create_block_diagonal_matrix(): the point-block
+  // Jacobi preconditioner of the operator, without the block rows.
+  void jacobian_block_diagonal(Vec v, Mat D);
+  Mat create_block_diagonal_matrix() const;
   // Preallocated for this step's couplings, block size dim, of `type` (MATAIJ
   // or MATBAIJ) unless -talus_mat_type says otherwise.
   Mat create_matrix(MatType type = MATAIJ) const;

@@ -52,6 +52,7 @@ struct NewtonReport {
   long linear_failures = 0;            // linear solves that did not converge (the step is judged on U alone)
   long factorizations = 0;             // numeric LU factorizations in this step (reused-factorization mode)
   long jacobian_matrices = 0;
+  long block_diagonals = 0;  // the Jacobian's diagonal blocks alone (point-block Jacobi of the operator)
   double linear_seconds = 0.0;         // in KSPSolve (preconditioner set-up, factorizations and products included)          // Jacobian matrices assembled (with the operator: only for factors)
   long fresh_resolves = 0;             // Newton systems solved again on fresh factors after stale ones failed
   bool line_search_retry = false;      // a step with rigid bodies failed with bt and was solved again with l2
@@ -132,10 +133,12 @@ class NewtonSolver {
     PetscInt stale_limit = 0;  // more Krylov iterations than this on stale factors: factor again
     long factorizations = 0;   // since construction
     // The current Jacobian is factored now: its factors are fresh and kept.
-    void factor_now() {
+    // `counted`: factors (LU, ILU), not a Jacobi preconditioner's inverted
+    // diagonal blocks.
+    void factor_now(bool counted = true) {
       fresh = true;
       refactor = false;
-      ++factorizations;
+      factorizations += counted;
     }
   };
   // Krylov iterations on stale LU factors above which the next Newton
@@ -195,7 +198,20 @@ class NewtonSolver {
     // (MomentumSystem::apply_jacobian) and the matrix is assembled only when
     // its factors are computed (docs/solver.md#the-jacobian-as-an-operator).
     bool jacobian_operator = false;
+    // With the operator, the preconditioner's matrix holds the Jacobian's
+    // diagonal blocks only (point-block Jacobi).
+    bool block_diagonal = false;
+    void assemble_preconditioner(Vec v, Mat P) {
+      if (block_diagonal) {
+        system->jacobian_block_diagonal(v, P);
+        ++block_diagonals;
+      } else {
+        system->jacobian(v, P);
+        ++assembled;
+      }
+    }
     long assembled = 0;  // Jacobian matrices assembled (since construction)
+    long block_diagonals = 0;  // block diagonals assembled instead (since construction)
     double linear_seconds = 0.0;  // in KSPSolve, since construction
     std::chrono::steady_clock::time_point linear_start;
     // The choice of the start left F(start) in `start_residual` (the SNES's
@@ -209,7 +225,12 @@ class NewtonSolver {
 
  private:
   // Default solver, then the options database under the prefix talus_.
-  void configure(PetscInt unknowns);
+  void configure(PetscInt unknowns, bool point_block = false);
+  // Kept preconditioners would work on the particle operator (no rigid
+  // bodies; -talus_jacobian, by default 27-point stencils).
+  bool operator_expected(const MomentumSystem<dim>& system) const;
+  bool point_block_default(const MomentumSystem<dim>& system) const;
+  bool built_point_block_ = false;  // the structure was built with point_block_default()
   void configure_direct(KSP ksp);  // preonly + LU (PETSc's LU in serial, MUMPS in parallel)
   MatType matrix_type() const;     // for the preconditioner configure() set up
   SNES solving_snes() const;       // the SNES whose KSP solves the linear systems (inner Newton, if any)
