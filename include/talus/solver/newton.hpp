@@ -51,9 +51,9 @@ struct NewtonReport {
   bool multigrid_fallback = false;     // ... above the LU's limit: solved again on geometric multigrid
   long linear_failures = 0;            // linear solves that did not converge (the step is judged on U alone)
   long factorizations = 0;             // numeric LU factorizations in this step (reused-factorization mode)
-  long jacobian_matrices = 0;
-  long block_diagonals = 0;  // the Jacobian's diagonal blocks alone (point-block Jacobi of the operator)
-  double linear_seconds = 0.0;         // in KSPSolve (preconditioner set-up, factorizations and products included)          // Jacobian matrices assembled (with the operator: only for factors)
+  long jacobian_matrices = 0;          // Jacobian matrices assembled (with the operator: only for factors)
+  long block_diagonals = 0;            // the Jacobian's diagonal blocks alone (point-block Jacobi of the operator)
+  double linear_seconds = 0.0;         // in KSPSolve (preconditioner set-up, factorizations and products included)
   long fresh_resolves = 0;             // Newton systems solved again on fresh factors after stale ones failed
   bool line_search_retry = false;      // a step with rigid bodies failed with bt and was solved again with l2
   bool regularized_retry = false;      // ... and failed again: solved with the regularized Jacobian
