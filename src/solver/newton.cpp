@@ -342,13 +342,15 @@ void NewtonSolver<dim>::build(MomentumSystem<dim>& system, PetscInt unknowns, Fa
 }
 
 // Point-block Jacobi by default where the Jacobian is a 3D operator of one
-// velocity field in a dynamic step (docs/solver.md#point-block-jacobi): with
+// velocity field in a step that a P-wave crosses in fewer than
+// point_block_wave_cells cells (docs/solver.md#point-block-jacobi): with
 // bodies in contact its blocks miss the stiff contact couplings (3D boulders
-// in sand: 328 LU fallbacks where ILU(1) needs none), and a quasi-static step
-// is an elliptic problem that a diagonal does not precondition.
+// in sand: 328 LU fallbacks where ILU(1) needs none), and the more cells a
+// step spans, the further the Jacobian is from its mass-dominated diagonal
+// (a quasi-static step is an elliptic problem).
 template <int dim>
 bool NewtonSolver<dim>::point_block_default(const MomentumSystem<dim>& system) const {
-  return dim == 3 && velocity_fields_ == 1 && operator_expected(system) && wave_cells_ < quasi_static_wave_cells;
+  return dim == 3 && velocity_fields_ == 1 && operator_expected(system) && wave_cells_ < point_block_wave_cells;
 }
 
 template <int dim>

@@ -185,6 +185,10 @@ class NewtonSolver {
   // does not, and is cut back when they fail).
   void set_wave_cells(double cells) { wave_cells_ = cells; }
   static constexpr double quasi_static_wave_cells = 100.0;
+  // Point-block Jacobi is the 3D default below this many cells per step
+  // (docs/solver.md#point-block-jacobi): measured better or equal to ILU(0)
+  // up to 27 cells, worse from 41.
+  static constexpr double point_block_wave_cells = 30.0;
   bool starts_on_multigrid(PetscInt unknowns) const {
     return multigrid_fallback_ && wave_cells_ >= quasi_static_wave_cells && unknowns > fallback_limit_;
   }
